@@ -1,0 +1,191 @@
+"""The `gloverec` command. Each subcommand parses its flags here and hands over to the module doing the job.
+
+Bad input (a missing port, a wrong flag value, a file that is not ours) ends in one line on stderr and a
+non-zero exit: GloverecError -> exit 1, argparse errors -> exit 2, Ctrl-C -> exit 130.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import sys
+
+from recorder import GloverecError, __version__
+
+PORT_HELP = "glove port: a serial device (serial:PORT or a path), udp:PORT, udp:HOST:PORT or mcap:FILE"
+
+
+def _positive(kind):
+    def parse(text):
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+        if value <= 0:
+            raise argparse.ArgumentTypeError(f"must be positive: {text!r}")
+        return value
+    return parse
+
+
+def _hostport(text: str) -> tuple[str, int]:
+    host, _, port = text.rpartition(":")
+    if not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise argparse.ArgumentTypeError(f"expected HOST:PORT, got {text!r}")
+    return host, int(port)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="gloverec", description=__doc__.splitlines()[0])
+    p.add_argument("--version", action="version", version=f"gloverec {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    e = sub.add_parser("emulate", help="serve a synthetic glove on a pseudo-terminal")
+    e.add_argument("--rate", type=_positive(float), default=200.0, help="frames per second (default 200)")
+    e.add_argument("--mode", choices=("raw", "pose", "json"), default="pose")
+    e.add_argument("--motion", choices=("gestures", "random"), default="gestures")
+    e.add_argument("--duration", type=_positive(float), help="seconds to stream (default: until killed)")
+    e.add_argument("--seed", type=int, default=0)
+    e.add_argument("--link", help="also expose the port as this stable symlink (as udev does for real gloves)")
+    e.set_defaults(func=cmd_emulate)
+
+    m = sub.add_parser("monitor", help="live rate, errors and latency of a glove")
+    m.add_argument("--port", required=True, help=PORT_HELP)
+    m.add_argument("--duration", type=_positive(float), help="seconds (default: until Ctrl-C)")
+    m.add_argument("--json", action="store_true", help="print one JSON object at the end")
+    m.add_argument("--protocol", choices=("auto", "binary", "json"), default="auto")
+    m.add_argument("--baud", type=_positive(int), default=115200)
+    m.set_defaults(func=cmd_monitor)
+
+    lg = sub.add_parser("log", help="record a glove session to an MCAP file")
+    lg.add_argument("--port", required=True, help=PORT_HELP)
+    lg.add_argument("--out", required=True, help="output .mcap file")
+    lg.add_argument("--duration", type=_positive(float), help="seconds (default: until Ctrl-C)")
+    lg.add_argument("--json", action="store_true", help="print the link statistics as JSON at the end")
+    lg.add_argument("--baud", type=_positive(int), default=115200)
+    lg.set_defaults(func=cmd_log)
+
+    b = sub.add_parser("bridge", help="forward a serial glove's frames to UDP, one frame per datagram")
+    b.add_argument("--port", required=True, help=PORT_HELP)
+    b.add_argument("--udp", required=True, type=_hostport, metavar="HOST:PORT")
+    b.add_argument("--duration", type=_positive(float), help="seconds (default: until Ctrl-C)")
+    b.add_argument("--baud", type=_positive(int), default=115200)
+    b.set_defaults(func=cmd_bridge)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    signal.signal(signal.SIGTERM, _interrupt)  # `kill` ends a stream like Ctrl-C: files are closed cleanly
+    try:
+        return args.func(args) or 0
+    except GloverecError as exc:
+        print(f"gloverec: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        return 130
+    except BrokenPipeError:
+        return 0
+
+
+def _interrupt(*_):
+    raise KeyboardInterrupt
+
+
+# ---------------------------------------------------------------- commands
+
+def cmd_emulate(args) -> int:
+    from recorder.emulator.emulator import Emulator
+
+    emu = Emulator(args.rate, args.mode, args.motion, args.seed, link=args.link)
+    try:
+        port = emu.plug()
+    except OSError as exc:
+        raise GloverecError(f"cannot create the emulator's port: {exc}") from None
+    print(f"port: {port}", flush=True)
+    # kill -USR1 unplugs the emulated USB cable, kill -USR2 plugs it back in (tests, manual checks)
+    signal.signal(signal.SIGUSR1, lambda *_: emu.unplug())
+    signal.signal(signal.SIGUSR2, lambda *_: emu.replug())
+    try:
+        emu.run(args.duration)
+    finally:
+        emu.close()
+        print(f"sent {emu.sent_frames} frames, dropped {emu.dropped_frames} behind a slow reader, "
+              f"{emu.unread_frames} with no reader", file=sys.stderr)
+    return 0
+
+
+def _finish(monitor, args, what: str) -> int:
+    report = monitor.report()
+    if args.json:
+        print(json.dumps(report), flush=True)
+    if monitor.samples == 0 and (args.duration is not None or monitor.source.finished):
+        raise GloverecError(f"no glove frames from {monitor.source.name} in {report['duration_s']:.1f} s "
+                            f"({report['bytes']} bytes, {report['errors']} rejected): is it a glove?")
+    if not args.json:
+        print(f"{what}: {json.dumps(report)}")
+    return 0
+
+
+def cmd_monitor(args) -> int:
+    from recorder.monitor import LinkMonitor
+
+    with _open_with_protocol(args) as source:
+        monitor = LinkMonitor(source)
+        try:
+            monitor.run(args.duration, live=not args.json and sys.stderr.isatty())
+        except KeyboardInterrupt:
+            pass
+    return _finish(monitor, args, "link")
+
+
+def _open_with_protocol(args):
+    from recorder.link.sources import make_source
+
+    kw = {"protocol": getattr(args, "protocol", "auto")}
+    if not args.port.startswith(("udp:", "mcap:")):
+        kw["baudrate"] = args.baud
+    return make_source(args.port, **kw)
+
+
+def cmd_log(args) -> int:
+    from recorder.log.writer import McapLogger
+    from recorder.monitor import LinkMonitor
+
+    source = _open_with_protocol(args)
+    try:
+        logger = McapLogger(args.out, {"source": args.port})
+    except OSError as exc:
+        raise GloverecError(f"cannot write {args.out}: {exc.strerror or exc}") from None
+    source.taps.append(logger)
+    try:
+        with source:
+            monitor = LinkMonitor(source)
+            try:
+                monitor.run(args.duration, live=not args.json and sys.stderr.isatty())
+            except KeyboardInterrupt:
+                pass
+    finally:
+        logger.close()
+    return _finish(monitor, args, f"logged to {args.out}")
+
+
+def cmd_bridge(args) -> int:
+    from recorder.bridge import Bridge
+    from recorder.monitor import LinkMonitor
+
+    host, port = args.udp
+    source = _open_with_protocol(args)
+    bridge = Bridge(source, host, port)
+    with source:
+        monitor = LinkMonitor(source)
+        try:
+            monitor.run(args.duration, live=sys.stderr.isatty(), tick=bridge.forward_commands)
+        except KeyboardInterrupt:
+            pass
+    print(f"bridged {bridge.datagrams} datagrams to udp:{host}:{port} ({bridge.send_errors} send errors)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

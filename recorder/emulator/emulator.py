@@ -1,0 +1,216 @@
+"""Serve a synthetic glove on a pseudo-terminal, speaking the wire protocol byte for byte.
+
+The pty slave is what a reader opens (``port: /dev/pts/N``, or a stable symlink ``link``, as udev gives real
+gloves under /dev/serial/by-id). ``unplug()`` closes the pty and removes the symlink, ``replug()`` makes a
+new one at the same symlink: the reader sees the port vanish and come back, as with a USB cable.
+The device clock is the host's CLOCK_MONOTONIC in µs (status frames say so), so latency is measurable.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import select
+import threading
+import time
+import tty
+
+from recorder.emulator.glove import SyntheticGlove
+from recorder.hand.skeleton import JOINT_MAP, MUX_MAP, N_IMUS
+from recorder.protocol import StreamDecoder
+from recorder.protocol.codec import encode_frame
+from recorder.protocol.frames import (
+    CLOCK_HOST_MONOTONIC,
+    CalibState,
+    Command,
+    CommandCode,
+    EventCode,
+    EventFrame,
+    Mode,
+    PoseFrame,
+    RawFrame,
+    StatusFrame,
+)
+from recorder.protocol.legacy_json import encode_line
+
+FIRMWARE = (0, 1, 0)       # the emulator reports itself as firmware 0.1.0
+GLOVE_ID = 0xE0E0_0001
+BLOCK_S = 0.25             # synthesise motion a quarter second at a time
+MAX_PENDING = 16 * 1024    # bytes held back while the reader is slow; beyond this, frames are dropped
+
+
+class Emulator:
+    def __init__(self, rate_hz: float = 200.0, mode: str = "pose", motion: str = "gestures", seed: int = 0,
+                 link: str | None = None):
+        self.sense_hz = float(rate_hz)   # synthesis ("sensing") rate, fixed
+        self.output_hz = float(rate_hz)  # frame rate; SET_RATE lowers it (at most the sensing rate)
+        self.mode = Mode[mode.upper()]
+        self.glove = SyntheticGlove(motion=motion, rate_hz=self.sense_hz, seed=seed)
+        self.link = link
+        self.seq = 0
+        self.sent_frames = 0
+        self.dropped_frames = 0   # frames a slow reader had no room for
+        self.unread_frames = 0    # frames written while no reader had the port open
+        self.port: str | None = None
+        self._master: int | None = None
+        self._pending = b""
+        self._commands = StreamDecoder("binary")
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self.truth = None  # the GloveBlock being streamed, for tests that compare against ground truth
+
+    # ------------------------------------------------------------ the pseudo-terminal
+    def plug(self) -> str:
+        with self._lock:
+            self._master, slave = os.openpty()
+            tty.setraw(slave)              # no echo, no newline translation: the line carries bytes
+            self.port = os.ttyname(slave)
+            # Not holding the slave open makes the pty behave like a USB CDC device: with no reader the
+            # bytes are discarded, with a slow reader the buffer fills and frames are dropped (counted).
+            os.close(slave)
+            os.set_blocking(self._master, False)
+            self._poll = select.poll()
+            self._poll.register(self._master, select.POLLOUT)
+            if self.link:
+                tmp = f"{self.link}.tmp{os.getpid()}"
+                os.symlink(self.port, tmp)
+                os.replace(tmp, self.link)
+            self._pending = b""
+            self._commands.reset()
+        self._write(self._status() + encode_frame(self._event(EventCode.BOOT)))
+        return self.link or self.port
+
+    def unplug(self) -> None:
+        with self._lock:
+            if self.link and os.path.islink(self.link):
+                os.unlink(self.link)
+            if self._master is not None:
+                os.close(self._master)
+            self._master = None
+
+    def replug(self) -> str:
+        return self.plug()
+
+    @property
+    def plugged(self) -> bool:
+        return self._master is not None
+
+    # ------------------------------------------------------------ streaming
+    def stop(self) -> None:
+        self._stop.set()
+
+    def run(self, duration: float | None = None) -> None:
+        """Sense at the glove's rate and output at ``output_hz`` until ``duration`` s pass or ``stop()``."""
+        if not self.plugged:
+            self.plug()
+        sense_period = 1.0 / self.sense_hz
+        start = time.monotonic()
+        next_status = start + 1.0
+        next_out = start
+        k = 0
+        block, i = None, 0
+        while not self._stop.is_set():
+            due = start + k * sense_period
+            if duration is not None and due - start >= duration:
+                break
+            delay = due - time.monotonic()
+            if delay > 0:
+                self._stop.wait(delay)
+            if block is None or i == len(block.t):
+                block, i = self.glove.next_block(max(1, int(BLOCK_S * self.sense_hz))), 0
+                self.truth = block
+            if self.plugged and due >= next_out - 1e-9:
+                next_out += 1.0 / self.output_hz
+                self._poll_commands()
+                data = self._encode(block, i)
+                now = time.monotonic()
+                if now >= next_status:
+                    data += self._status()
+                    next_status = now + 1.0
+                self._write(data)
+            i += 1
+            k += 1
+            lag = time.monotonic() - due
+            if lag > 1.0:  # suspended or starved: skip ahead instead of bursting
+                k += int(lag / sense_period)
+                next_out = start + k * sense_period
+
+    def _encode(self, block, i: int) -> bytes:
+        t_us = time.monotonic_ns() // 1000 & 0xFFFFFFFF
+        if self.mode == Mode.JSON:
+            return encode_line(block.pose[i])
+        if self.mode == Mode.POSE:
+            frame = PoseFrame(self._next_seq(), t_us, block.pose[i])
+        else:
+            frame = RawFrame(self._next_seq(), t_us, block.raw[i], block.accel_fs_g, block.gyro_fs_dps,
+                             (1 << N_IMUS) - 1)
+        return encode_frame(frame)
+
+    def _next_seq(self) -> int:
+        self.seq = (self.seq + 1) & 0xFFFF
+        return self.seq
+
+    def _event(self, code: EventCode, arg: int = 0) -> EventFrame:
+        return EventFrame(self._next_seq(), time.monotonic_ns() // 1000 & 0xFFFFFFFF, code, arg)
+
+    def _status(self) -> bytes:
+        return encode_frame(StatusFrame(
+            self._next_seq(), time.monotonic_ns() // 1000 & 0xFFFFFFFF, FIRMWARE, self.mode,
+            int(self.sense_hz), int(self.output_hz), CalibState.DONE, 100, CLOCK_HOST_MONOTONIC, GLOVE_ID,
+            (1 << N_IMUS) - 1, MUX_MAP, JOINT_MAP))
+
+    def _write(self, data: bytes) -> None:
+        """Non-blocking write; a frame that does not fit behind a slow reader is dropped whole."""
+        with self._lock:
+            if self._master is None:
+                return
+            if self._poll.poll(0)[0][1] & select.POLLHUP:  # no reader has the port open: bytes go nowhere
+                self._pending = b""
+                self.unread_frames += 1
+                return
+            buf = self._pending + data
+            try:
+                n = os.write(self._master, buf)
+            except BlockingIOError:
+                n = 0
+            except OSError as exc:
+                if exc.errno != errno.EIO:  # EIO: the pty is going away
+                    raise
+                n = len(buf)
+            self._pending = buf[n:]
+            if len(self._pending) > MAX_PENDING:
+                self.dropped_frames += 1
+                self._pending = self._pending[: len(self._pending) - len(data)]
+            else:
+                self.sent_frames += 1
+
+    # ------------------------------------------------------------ host commands
+    def _poll_commands(self) -> None:
+        try:
+            data = os.read(self._master, 4096)
+        except (BlockingIOError, OSError):
+            return
+        for cmd in self._commands.feed(data):
+            if isinstance(cmd, Command):
+                self._apply(cmd)
+
+    def _apply(self, cmd: Command) -> None:
+        if cmd.code == CommandCode.SET_MODE:
+            self.mode = Mode(cmd.arg)
+        elif cmd.code == CommandCode.SET_RATE and cmd.arg > 0:
+            self.output_hz = min(float(cmd.arg), self.sense_hz)
+        elif cmd.code == CommandCode.RESET_POSE:
+            self._write(encode_frame(self._event(EventCode.POSE_RESET)))
+        elif cmd.code == CommandCode.RECALIBRATE:
+            self._write(encode_frame(self._event(EventCode.CALIB_START)) +
+                        encode_frame(self._event(EventCode.CALIB_DONE)))
+        self._write(self._status())
+
+    def press_button(self) -> None:
+        """The reset button: an event, as the glove sends when pin 5 goes low."""
+        self._write(encode_frame(self._event(EventCode.BUTTON)))
+
+    def close(self) -> None:
+        self.stop()
+        if self.plugged:
+            self.unplug()

@@ -1,0 +1,1 @@
+"""The thesis' 16-segment hand model."""

@@ -1,0 +1,20 @@
+"""The glove wire protocol (spec: docs/protocol.md): frames, the binary codec, legacy JSON, stream decoding."""
+
+from recorder.protocol.codec import decode_frame, encode_frame, encode_command
+from recorder.protocol.frames import (
+    Command,
+    CommandCode,
+    EventCode,
+    EventFrame,
+    FrameKind,
+    Mode,
+    PoseFrame,
+    RawFrame,
+    StatusFrame,
+)
+from recorder.protocol.stream import DecodeStats, StreamDecoder
+
+__all__ = [
+    "Command", "CommandCode", "DecodeStats", "EventCode", "EventFrame", "FrameKind", "Mode", "PoseFrame",
+    "RawFrame", "StatusFrame", "StreamDecoder", "decode_frame", "encode_command", "encode_frame",
+]

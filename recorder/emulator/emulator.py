@@ -54,7 +54,7 @@ class Emulator:
         self.port: str | None = None
         self._master: int | None = None
         self._pending = b""
-        self._commands = StreamDecoder("binary")
+        self._commands = StreamDecoder("binary", sequenced=False)
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self.truth = None  # the GloveBlock being streamed, for tests that compare against ground truth
@@ -77,7 +77,7 @@ class Emulator:
                 os.replace(tmp, self.link)
             self._pending = b""
             self._commands.reset()
-        self._write(self._status() + encode_frame(self._event(EventCode.BOOT)))
+        self._write(self._status() + self._event(EventCode.BOOT))
         return self.link or self.port
 
     def unplug(self) -> None:
@@ -150,10 +150,16 @@ class Emulator:
         self.seq = (self.seq + 1) & 0xFFFF
         return self.seq
 
-    def _event(self, code: EventCode, arg: int = 0) -> EventFrame:
-        return EventFrame(self._next_seq(), time.monotonic_ns() // 1000 & 0xFFFFFFFF, code, arg)
+    # Status and event frames are binary; in legacy JSON mode the glove sends nothing but JSON lines, as
+    # the thesis prototype did, so a legacy reader is never confused.
+    def _event(self, code: EventCode, arg: int = 0) -> bytes:
+        if self.mode == Mode.JSON:
+            return b""
+        return encode_frame(EventFrame(self._next_seq(), time.monotonic_ns() // 1000 & 0xFFFFFFFF, code, arg))
 
     def _status(self) -> bytes:
+        if self.mode == Mode.JSON:
+            return b""
         return encode_frame(StatusFrame(
             self._next_seq(), time.monotonic_ns() // 1000 & 0xFFFFFFFF, FIRMWARE, self.mode,
             int(self.sense_hz), int(self.output_hz), CalibState.DONE, 100, CLOCK_HOST_MONOTONIC, GLOVE_ID,
@@ -162,7 +168,7 @@ class Emulator:
     def _write(self, data: bytes) -> None:
         """Non-blocking write; a frame that does not fit behind a slow reader is dropped whole."""
         with self._lock:
-            if self._master is None:
+            if self._master is None or not data:
                 return
             if self._poll.poll(0)[0][1] & select.POLLHUP:  # no reader has the port open: bytes go nowhere
                 self._pending = b""
@@ -200,15 +206,14 @@ class Emulator:
         elif cmd.code == CommandCode.SET_RATE and cmd.arg > 0:
             self.output_hz = min(float(cmd.arg), self.sense_hz)
         elif cmd.code == CommandCode.RESET_POSE:
-            self._write(encode_frame(self._event(EventCode.POSE_RESET)))
+            self._write(self._event(EventCode.POSE_RESET))
         elif cmd.code == CommandCode.RECALIBRATE:
-            self._write(encode_frame(self._event(EventCode.CALIB_START)) +
-                        encode_frame(self._event(EventCode.CALIB_DONE)))
+            self._write(self._event(EventCode.CALIB_START) + self._event(EventCode.CALIB_DONE))
         self._write(self._status())
 
     def press_button(self) -> None:
         """The reset button: an event, as the glove sends when pin 5 goes low."""
-        self._write(encode_frame(self._event(EventCode.BUTTON)))
+        self._write(self._event(EventCode.BUTTON))
 
     def close(self) -> None:
         self.stop()

@@ -16,7 +16,7 @@ from typing import Callable
 
 from recorder import GloverecError
 from recorder.link.clock import DeviceClock
-from recorder.protocol import StreamDecoder
+from recorder.protocol import CommandCode, StreamDecoder, encode_command
 from recorder.protocol.frames import CLOCK_HOST_MONOTONIC, Frame, StatusFrame
 
 # tap(data, rx_ns, frames): sees every chunk of bytes as read and the frames decoded from it (logging, bridging)
@@ -57,12 +57,15 @@ class GloveSource:
         self._connected = False
         self._reconnects = 0
         self._queue_drops = 0
+        self._command_seq = 0
         self._down_since: float | None = None
         self._down_total = 0.0
         self.finished = False  # the source ended (a log played to its end); read() then returns None at once
 
     # ------------------------------------------------------------ lifecycle
     def open(self) -> "GloveSource":
+        if self._thread is not None:  # already open (open_source() opens; `with` may follow)
+            return self
         try:
             self._connect()
         except OSError as exc:
@@ -104,6 +107,11 @@ class GloveSource:
     def send(self, data: bytes) -> None:
         """Send bytes (an encoded command) to the glove."""
         raise GloverecError(f"{self.name} cannot send commands")
+
+    def command(self, code: CommandCode, arg: int = 0) -> None:
+        """Send a host command (docs/protocol.md), numbered with this host's own sequence."""
+        self._command_seq = (self._command_seq + 1) & 0xFFFF
+        self.send(encode_command(code, arg, self._command_seq))
 
     def host_time_s(self, frame: Frame) -> float:
         """Host monotonic time (s) at which the device sampled ``frame``; receive time when it has no clock."""

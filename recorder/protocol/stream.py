@@ -43,11 +43,13 @@ class DecodeStats:
 class StreamDecoder:
     """Incremental decoder. ``protocol`` is "auto", "binary" or "json"."""
 
-    def __init__(self, protocol: str = "auto"):
+    def __init__(self, protocol: str = "auto", sequenced: bool = True):
+        """``sequenced=False`` accepts frames whatever their sequence number (a glove reading commands)."""
         if protocol not in ("auto", BINARY, JSON):
             raise ValueError(f"protocol must be auto, binary or json, not {protocol!r}")
         self.auto = protocol == "auto"
         self.protocol: str | None = None if self.auto else protocol
+        self.sequenced = sequenced
         self.stats = DecodeStats()
         self._buf = bytearray()
         self._last_seq: int | None = None
@@ -142,7 +144,7 @@ class StreamDecoder:
 
     def _sequence_ok(self, frame: Frame) -> bool:
         """Count gaps; drop late or duplicated frames (possible on UDP, never on serial)."""
-        if self.protocol == JSON:
+        if self.protocol == JSON or not self.sequenced:
             self.stats.frames += 1
             return True
         if self._last_seq is not None:

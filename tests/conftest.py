@@ -1,0 +1,69 @@
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+os.environ.setdefault("HF_HUB_OFFLINE", "1")
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+
+def gloverec(*args: str, **kw) -> subprocess.CompletedProcess:
+    """Run the CLI as a user would, in a child process."""
+    return subprocess.run([sys.executable, "-m", "recorder.cli", *args], capture_output=True, text=True,
+                          timeout=kw.pop("timeout", 60), **kw)
+
+
+class EmulatorProcess:
+    """`gloverec emulate` in a child process: a real pseudo-terminal, a real separate writer."""
+
+    def __init__(self, *args: str):
+        self.proc = subprocess.Popen([sys.executable, "-m", "recorder.cli", "emulate", *args],
+                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        line = self.proc.stdout.readline()
+        if not line.startswith("port: "):
+            self.proc.kill()
+            raise RuntimeError(f"emulator did not start: {line!r} {self.proc.stderr.read()}")
+        self.port = line.split(": ", 1)[1].strip()
+
+    def unplug(self):
+        self.proc.send_signal(signal.SIGUSR1)
+
+    def replug(self):
+        self.proc.send_signal(signal.SIGUSR2)
+
+    def stop(self) -> str:
+        if self.proc.poll() is None:
+            self.proc.terminate()
+        try:
+            _, err = self.proc.communicate(timeout=10)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            _, err = self.proc.communicate()
+        return err
+
+
+@pytest.fixture
+def emulator(tmp_path):
+    started = []
+
+    def start(*args: str, link: bool = True) -> EmulatorProcess:
+        extra = ("--link", str(tmp_path / f"glove{len(started)}")) if link else ()
+        emu = EmulatorProcess(*args, *extra)
+        started.append(emu)
+        return emu
+
+    yield start
+    for emu in started:
+        emu.stop()
+
+
+def wait_for(predicate, timeout: float = 5.0, step: float = 0.02) -> bool:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if predicate():
+            return True
+        time.sleep(step)
+    return predicate()

@@ -1,0 +1,237 @@
+"""The glove link on real pseudo-terminals: emulator process -> pty -> pyserial reader thread."""
+
+import os
+import socket
+import time
+import tty
+
+import numpy as np
+import pytest
+
+from conftest import gloverec, wait_for
+from recorder import GloverecError
+from recorder.link.clock import DeviceClock
+from recorder.link.sources import make_source, open_source
+from recorder.protocol import CommandCode, EventCode, EventFrame, Mode, PoseFrame, RawFrame, StatusFrame, encode_command
+from recorder.protocol.codec import encode_frame
+from recorder.protocol.frames import identity_pose
+
+
+def collect(source, n, timeout=5.0, kind=(PoseFrame, RawFrame)):
+    frames, end = [], time.monotonic() + timeout
+    while len(frames) < n and time.monotonic() < end:
+        f = source.read(timeout=0.1)
+        if isinstance(f, kind):
+            frames.append(f)
+    return frames
+
+
+def test_emulated_glove_streams_pose_frames(emulator):
+    emu = emulator("--rate", "200", "--mode", "pose")
+    with open_source(emu.port) as src:
+        frames = collect(src, 200)
+        stats = src.stats()
+    assert len(frames) == 200
+    q = np.stack([f.quats for f in frames])
+    assert np.allclose(np.linalg.norm(q, axis=-1), 1, atol=1e-3)
+    assert q.std(axis=0).max() > 0.01, "the hand is not moving"
+    assert stats.protocol == "binary" and stats.decode["errors"] == 0 and stats.decode["gaps"] == 0
+    rx = np.array([f.rx_ns for f in frames]) * 1e-9
+    assert 150 < (len(rx) - 1) / (rx[-1] - rx[0]) < 250
+    assert src.clock.host_monotonic
+    latency = [f.rx_ns * 1e-9 - src.host_time_s(f) for f in frames]
+    assert 0 <= np.median(latency) < 0.05
+
+
+def test_raw_mode_carries_twelve_mpu9250(emulator):
+    emu = emulator("--rate", "200", "--mode", "raw")
+    with open_source(emu.port) as src:
+        frames = collect(src, 50)
+    assert len(frames) == 50 and all(f.data.shape == (12, 7) for f in frames)
+    g = np.linalg.norm(np.stack([f.accel_g for f in frames]), axis=-1)
+    assert 0.5 < np.median(g) < 1.5  # gravity dominates a moving hand's accelerometers
+    assert np.all((20 < frames[-1].temperature_c) & (frames[-1].temperature_c < 40))
+
+
+def test_legacy_json_glove_is_detected(emulator):
+    emu = emulator("--rate", "60", "--mode", "json")
+    with open_source(emu.port) as src:
+        frames = collect(src, 20)
+        assert src.stats().protocol == "json"
+    assert len(frames) == 20 and all(f.t_us == -1 for f in frames)
+
+
+def test_commands_switch_the_glove_mode(emulator):
+    emu = emulator("--rate", "200", "--mode", "pose")
+    with open_source(emu.port) as src:
+        assert len(collect(src, 20)) == 20
+        src.command(CommandCode.SET_MODE, Mode.RAW)
+        assert wait_for(lambda: isinstance(src.read(0.1), RawFrame))
+        src.command(CommandCode.SET_MODE, Mode.JSON)
+        assert wait_for(lambda: src.stats().protocol == "json" and src.read(0.1) is not None)
+        src.send(encode_command(CommandCode.SET_MODE, Mode.POSE))  # seq 0 again: the glove ignores seq
+        assert wait_for(lambda: isinstance(src.read(0.1), PoseFrame), timeout=5)
+
+
+def test_unplug_and_replug_reconnects(emulator):
+    emu = emulator("--rate", "200")
+    with open_source(emu.port) as src:
+        assert len(collect(src, 20)) == 20
+        emu.unplug()
+        assert wait_for(lambda: not src.connected)
+        assert not os.path.exists(emu.port)
+        src.drain()
+        time.sleep(0.3)
+        emu.replug()
+        assert wait_for(lambda: src.connected)
+        after = collect(src, 50)
+        stats = src.stats()
+    assert len(after) == 50
+    assert stats.reconnects == 1 and stats.disconnected_s > 0.2
+    assert stats.decode["errors"] == 0
+
+
+def test_garbage_between_frames_is_counted_and_skipped(tmp_path):
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    port = os.ttyname(slave)
+    os.close(slave)
+    rng = np.random.default_rng(1)
+    with open_source(port) as src:
+        sent = []
+        for seq in range(60):
+            f = PoseFrame(seq, seq * 1000, identity_pose())
+            sent.append(f)
+            junk = rng.integers(0, 256, rng.integers(0, 30), dtype=np.uint8).tobytes()
+            os.write(master, junk + b"\x00" + encode_frame(f))
+            time.sleep(0.002)
+        got = collect(src, 60, timeout=3)
+        stats = src.stats()
+    os.close(master)
+    assert [f.seq for f in got] == list(range(60))
+    assert stats.decode["errors"] > 0 and stats.decode["gaps"] == 0
+
+
+def test_a_slow_consumer_loses_the_oldest_frames_and_counts_them(emulator):
+    emu = emulator("--rate", "500")
+    src = make_source(emu.port, queue_size=16).open()
+    try:
+        time.sleep(1.0)
+        stats = src.stats()
+        frames = src.drain()
+    finally:
+        src.close()
+    assert len(frames) == 16 and stats.queue_drops > 100
+    assert frames[-1].seq - frames[0].seq == 15
+
+
+def test_missing_port_is_a_clear_error(tmp_path):
+    with pytest.raises(GloverecError, match="no such port"):
+        open_source(str(tmp_path / "nope"))
+    r = gloverec("monitor", "--port", str(tmp_path / "nope"), "--duration", "1")
+    assert r.returncode == 1 and r.stderr.count("\n") == 1 and "no such port" in r.stderr
+
+
+def test_a_port_that_is_not_a_glove_fails_cleanly():
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    port = os.ttyname(slave)
+    os.close(slave)
+    import threading
+    stop = threading.Event()
+
+    def chatter():
+        while not stop.is_set():
+            try:
+                os.write(master, b"AT+OK\r\nhello \x00 modem\r\n" + os.urandom(40))
+            except OSError:
+                pass
+            time.sleep(0.01)
+
+    t = threading.Thread(target=chatter, daemon=True)
+    t.start()
+    try:
+        r = gloverec("monitor", "--port", port, "--duration", "1.5", "--json")
+    finally:
+        stop.set()
+        t.join()
+        os.close(master)
+    assert r.returncode == 1
+    assert r.stderr.strip().count("\n") == 0 and "is it a glove?" in r.stderr
+    assert '"frames": 0' in r.stdout
+
+
+def test_monitor_json_report(emulator):
+    emu = emulator("--rate", "250")
+    r = gloverec("monitor", "--port", emu.port, "--duration", "2", "--json")
+    assert r.returncode == 0, r.stderr
+    import json
+    rep = json.loads(r.stdout)
+    for key in ("frames", "rate_hz", "errors", "gaps", "latency_ms_p50", "latency_ms_p99", "protocol"):
+        assert key in rep
+    assert rep["protocol"] == "binary" and rep["errors"] == 0 and rep["gaps"] == 0
+    assert 200 < rep["rate_hz"] < 300 and rep["latency_ms_p99"] < 20
+
+
+def test_udp_source_counts_lost_and_reordered_datagrams():
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sock.bind(("127.0.0.1", 0))
+    port = sock.getsockname()[1]
+    sock.close()
+    with open_source(f"udp:127.0.0.1:{port}") as src:
+        out = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        order = [0, 1, 2, 4, 3, 5, 5, 8, 9]  # 3 late, 5 twice, 6 and 7 lost
+        for seq in order:
+            out.sendto(encode_frame(EventFrame(seq, 0, EventCode.BUTTON)), ("127.0.0.1", port))
+        # a datagram torn in half must not be glued to the next one
+        whole = encode_frame(EventFrame(10, 0, EventCode.BUTTON))
+        out.sendto(whole[:5], ("127.0.0.1", port))
+        out.sendto(whole[5:], ("127.0.0.1", port))
+        out.sendto(encode_frame(EventFrame(11, 0, EventCode.BUTTON)), ("127.0.0.1", port))
+        got = collect(src, 8, timeout=2, kind=EventFrame)
+        stats = src.stats().decode
+        out.close()
+    assert [f.seq for f in got] == [0, 1, 2, 4, 5, 8, 9, 11]
+    assert stats["reordered"] == 2 and stats["gaps"] == 1 + 2 + 1 and stats["errors"] == 2
+
+
+def test_bridge_forwards_serial_frames_to_udp(emulator):
+    import subprocess
+    import sys
+    emu = emulator("--rate", "200")
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sock.bind(("127.0.0.1", 0))
+    port = sock.getsockname()[1]
+    sock.close()
+    with open_source(f"udp:127.0.0.1:{port}") as src:
+        bridge = subprocess.Popen([sys.executable, "-m", "recorder.cli", "bridge", "--port", emu.port,
+                                   "--udp", f"127.0.0.1:{port}", "--duration", "3"],
+                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        frames = collect(src, 200, timeout=5)
+        src.send(encode_command(CommandCode.SET_MODE, 0))  # back through the bridge to the glove
+        raw = wait_for(lambda: isinstance(src.read(0.1), RawFrame), timeout=3)
+        out, err = bridge.communicate(timeout=10)
+        stats = src.stats().decode
+    assert len(frames) == 200 and bridge.returncode == 0, err
+    assert stats["errors"] == 0 and stats["gaps"] == 0
+    assert raw, "a command sent over UDP did not reach the glove"
+    assert "bridged" in out
+
+
+def test_device_clock_estimates_offset_and_drift():
+    rng = np.random.default_rng(0)
+    clock = DeviceClock()
+    offset, drift = 12.5, 40e-6  # device starts 12.5 s behind the host and runs 40 ppm slow
+    t_dev = np.arange(0, 120, 0.005)
+    host = t_dev * (1 + drift) + offset + 0.0002 + rng.exponential(0.001, t_dev.size)
+    for d, h in zip(t_dev, host):
+        t_us = int(d * 1e6) & 0xFFFFFFFF
+        clock.update(clock.unwrap(t_us, int(h * 1e9)), int(h * 1e9))
+    assert abs(clock.drift * 1e6 - 40) < 3
+    assert abs(clock.to_host_s(100.0) - (100 * (1 + drift) + offset + 0.0002)) < 0.0005
+
+
+def test_device_clock_unwraps_the_32bit_counter():
+    clock = DeviceClock()
+    t = [clock.unwrap(x, 0) for x in (0xFFFFFF00, 0xFFFFFFF0, 0x10, 0x200)]
+    assert np.all(np.diff(t) > 0) and abs(t[2] - t[1] - 32e-6) < 1e-9

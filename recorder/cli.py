@@ -35,10 +35,15 @@ def _hostport(text: str) -> tuple[str, int]:
     return host, int(port)
 
 
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # one line, not argparse's usage block
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="gloverec", description=__doc__.splitlines()[0])
+    p = _Parser(prog="gloverec", description=__doc__.splitlines()[0])
     p.add_argument("--version", action="version", version=f"gloverec {__version__}")
-    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=_Parser)
 
     e = sub.add_parser("emulate", help="serve a synthetic glove on a pseudo-terminal")
     e.add_argument("--rate", type=_positive(float), default=200.0, help="frames per second (default 200)")
@@ -47,6 +52,8 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--duration", type=_positive(float), help="seconds to stream (default: until killed)")
     e.add_argument("--seed", type=int, default=0)
     e.add_argument("--link", help="also expose the port as this stable symlink (as udev does for real gloves)")
+    e.add_argument("--truth", metavar="FILE.npz", help="on exit, save the ground truth of every frame sent "
+                   "(seq, t_us, joint angles, parent-relative quaternions, fingertips, palm pose)")
     e.set_defaults(func=cmd_emulate)
 
     m = sub.add_parser("monitor", help="live rate, errors and latency of a glove")
@@ -55,6 +62,7 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--json", action="store_true", help="print one JSON object at the end")
     m.add_argument("--protocol", choices=("auto", "binary", "json"), default="auto")
     m.add_argument("--baud", type=_positive(int), default=115200)
+    m.add_argument("--fast", action="store_true", help="play an mcap:FILE back as fast as it decodes")
     m.set_defaults(func=cmd_monitor)
 
     lg = sub.add_parser("log", help="record a glove session to an MCAP file")
@@ -97,7 +105,7 @@ def _interrupt(*_):
 def cmd_emulate(args) -> int:
     from recorder.emulator.emulator import Emulator
 
-    emu = Emulator(args.rate, args.mode, args.motion, args.seed, link=args.link)
+    emu = Emulator(args.rate, args.mode, args.motion, args.seed, link=args.link, keep_truth=bool(args.truth))
     try:
         port = emu.plug()
     except OSError as exc:
@@ -110,6 +118,8 @@ def cmd_emulate(args) -> int:
         emu.run(args.duration)
     finally:
         emu.close()
+        if args.truth:
+            print(f"ground truth of {emu.save_truth(args.truth)} frames in {args.truth}", file=sys.stderr)
         print(f"sent {emu.sent_frames} frames, dropped {emu.dropped_frames} behind a slow reader, "
               f"{emu.unread_frames} with no reader", file=sys.stderr)
     return 0
@@ -143,7 +153,9 @@ def _open_with_protocol(args):
     from recorder.link.sources import make_source
 
     kw = {"protocol": getattr(args, "protocol", "auto")}
-    if not args.port.startswith(("udp:", "mcap:")):
+    if args.port.startswith("mcap:"):
+        kw["realtime"] = not getattr(args, "fast", False)
+    elif not args.port.startswith("udp:"):
         kw["baudrate"] = args.baud
     return make_source(args.port, **kw)
 

@@ -15,6 +15,8 @@ import threading
 import time
 import tty
 
+import numpy as np
+
 from recorder.emulator.glove import SyntheticGlove
 from recorder.hand.skeleton import JOINT_MAP, MUX_MAP, N_IMUS
 from recorder.protocol import StreamDecoder
@@ -41,7 +43,7 @@ MAX_PENDING = 16 * 1024    # bytes held back while the reader is slow; beyond th
 
 class Emulator:
     def __init__(self, rate_hz: float = 200.0, mode: str = "pose", motion: str = "gestures", seed: int = 0,
-                 link: str | None = None):
+                 link: str | None = None, keep_truth: bool = False):
         self.sense_hz = float(rate_hz)   # synthesis ("sensing") rate, fixed
         self.output_hz = float(rate_hz)  # frame rate; SET_RATE lowers it (at most the sensing rate)
         self.mode = Mode[mode.upper()]
@@ -57,7 +59,7 @@ class Emulator:
         self._commands = StreamDecoder("binary", sequenced=False)
         self._lock = threading.Lock()
         self._stop = threading.Event()
-        self.truth = None  # the GloveBlock being streamed, for tests that compare against ground truth
+        self.truth_rows: list | None = [] if keep_truth else None  # ground truth per frame sent
 
     # ------------------------------------------------------------ the pseudo-terminal
     def plug(self) -> str:
@@ -118,7 +120,6 @@ class Emulator:
                 self._stop.wait(delay)
             if block is None or i == len(block.t):
                 block, i = self.glove.next_block(max(1, int(BLOCK_S * self.sense_hz))), 0
-                self.truth = block
             if self.plugged and due >= next_out - 1e-9:
                 next_out += 1.0 / self.output_hz
                 self._poll_commands()
@@ -138,13 +139,24 @@ class Emulator:
     def _encode(self, block, i: int) -> bytes:
         t_us = time.monotonic_ns() // 1000 & 0xFFFFFFFF
         if self.mode == Mode.JSON:
-            return encode_line(block.pose[i])
-        if self.mode == Mode.POSE:
-            frame = PoseFrame(self._next_seq(), t_us, block.pose[i])
+            data, seq = encode_line(block.pose[i]), -1
+        elif self.mode == Mode.POSE:
+            data, seq = encode_frame(PoseFrame(self._next_seq(), t_us, block.pose[i])), self.seq
         else:
-            frame = RawFrame(self._next_seq(), t_us, block.raw[i], block.accel_fs_g, block.gyro_fs_dps,
-                             (1 << N_IMUS) - 1)
-        return encode_frame(frame)
+            data, seq = encode_frame(RawFrame(self._next_seq(), t_us, block.raw[i], block.accel_fs_g,
+                                              block.gyro_fs_dps, (1 << N_IMUS) - 1)), self.seq
+        if self.truth_rows is not None:
+            self.truth_rows.append((seq, t_us, block.t[i], block.angles[i], block.truth_rel[i], block.tips[i],
+                                    block.palm_quat[i], block.palm_pos[i]))
+        return data
+
+    def save_truth(self, path: str) -> int:
+        """Write the ground truth of every frame sent, keyed by seq and t_us, to an .npz; returns the count."""
+        rows = self.truth_rows or []
+        cols = list(zip(*rows)) or [()] * 8
+        names = ("seq", "t_us", "t", "angles", "rel_quats", "tips", "palm_quat", "palm_pos")
+        np.savez_compressed(path, **{k: np.array(v) for k, v in zip(names, cols)})
+        return len(rows)
 
     def _next_seq(self) -> int:
         self.seq = (self.seq + 1) & 0xFFFF

@@ -1,0 +1,32 @@
+"""Shared by the benchmarks: where results go and how they are written."""
+
+from __future__ import annotations
+
+import json
+import platform
+import statistics
+import time
+from pathlib import Path
+
+RESULTS = Path(__file__).resolve().parent / "results"
+
+
+def write_results(name: str, results: dict) -> Path:
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    path = RESULTS / f"{name}.json"
+    meta = {"benchmark": name, "when": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "python": platform.python_version(),
+            "machine": platform.machine(), "cpus": __import__("os").cpu_count()}
+    path.write_text(json.dumps({"meta": meta, **results}, indent=2) + "\n")
+    print(f"wrote {path}")
+    return path
+
+
+def median_rate(fn, items: int, runs: int = 5) -> dict:
+    """Run ``fn`` ``runs`` times; items per second as median, min and max."""
+    rates = []
+    for _ in range(runs):
+        t = time.perf_counter()
+        fn()
+        rates.append(items / (time.perf_counter() - t))
+    return {"median": round(statistics.median(rates)), "min": round(min(rates)), "max": round(max(rates)),
+            "runs": runs}

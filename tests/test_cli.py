@@ -1,0 +1,48 @@
+"""The CLI as a user meets it: flags, first lines, one-line errors."""
+
+import numpy as np
+import pytest
+
+from conftest import gloverec
+from recorder import quat
+from recorder.link.sources import open_source
+from recorder.protocol import PoseFrame
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["emulate", "--rate", "-5"], "must be positive"),
+    (["emulate", "--mode", "binary"], "invalid choice"),
+    (["monitor"], "--port"),
+    (["bridge", "--port", "x", "--udp", "nohost"], "HOST:PORT"),
+    (["frobnicate"], "invalid choice"),
+])
+def test_usage_errors_are_one_line(args, needle):
+    r = gloverec(*args)
+    assert r.returncode == 2
+    assert r.stderr.count("\n") == 1 and needle in r.stderr and "Traceback" not in r.stderr
+
+
+def test_bad_udp_source_is_one_line():
+    r = gloverec("monitor", "--port", "udp:notaport", "--duration", "1")
+    assert r.returncode == 1 and r.stderr.count("\n") == 1 and "udp:PORT" in r.stderr
+
+
+def test_emulator_prints_its_port_first_and_exposes_ground_truth(emulator, tmp_path):
+    truth = tmp_path / "truth.npz"
+    emu = emulator("--rate", "100", "--truth", str(truth), "--seed", "3")
+    got = []
+    with open_source(emu.port) as src:
+        while len(got) < 100:
+            f = src.read(timeout=2)
+            assert f is not None
+            if isinstance(f, PoseFrame):
+                got.append(f)
+    assert "ground truth of" in emu.stop()
+    t = np.load(truth)
+    by_seq = {int(s): i for i, s in enumerate(t["seq"])}
+    assert all(f.seq in by_seq for f in got)
+    idx = [by_seq[f.seq] for f in got]
+    assert np.array_equal(t["t_us"][idx], [f.t_us for f in got])
+    err = np.degrees(quat.angle_between(np.stack([f.quats for f in got]), t["rel_quats"][idx]))
+    assert np.median(err) < 1.5 and err.max() < 5  # pose = truth + 0.5° RMS noise
+    assert t["angles"].shape[1] == 20 and t["tips"].shape[1:] == (5, 3)

@@ -151,8 +151,6 @@ class GloveSource:
                 self.clock.host_monotonic = bool(f.clock_flags & CLOCK_HOST_MONOTONIC)
             elif f.t_us >= 0:
                 self.clock.update(self.clock.unwrap(f.t_us, rx_ns), rx_ns)
-        for tap in self.taps:
-            tap(data, rx_ns, frames)
         if frames:
             with self._cond:
                 overflow = len(self._queue) + len(frames) - self._queue.maxlen
@@ -160,6 +158,8 @@ class GloveSource:
                     self._queue_drops += overflow
                 self._queue.extend(frames)
                 self._cond.notify_all()
+        for tap in self.taps:  # after queueing, so logging adds no latency to the consumer
+            tap(data, rx_ns, frames)
 
     def _on_lost(self) -> None:
         self._safe_disconnect()

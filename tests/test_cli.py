@@ -46,3 +46,21 @@ def test_emulator_prints_its_port_first_and_exposes_ground_truth(emulator, tmp_p
     err = np.degrees(quat.angle_between(np.stack([f.quats for f in got]), t["rel_quats"][idx]))
     assert np.median(err) < 1.5 and err.max() < 5  # pose = truth + 0.5° RMS noise
     assert t["angles"].shape[1] == 20 and t["tips"].shape[1:] == (5, 3)
+
+
+def test_log_then_play_back_through_the_cli(emulator, tmp_path):
+    import json
+    emu = emulator("--rate", "200", "--mode", "raw")
+    out = tmp_path / "s.mcap"
+    r = gloverec("log", "--port", emu.port, "--out", str(out), "--duration", "2", "--json")
+    assert r.returncode == 0, r.stderr
+    live = json.loads(r.stdout)
+    back = gloverec("monitor", "--port", f"mcap:{out}", "--fast", "--json")
+    assert back.returncode == 0, back.stderr
+    replay = json.loads(back.stdout)
+    assert live["samples"] > 300 and replay["samples"] == live["samples"]
+    assert replay["errors"] == live["errors"] == 0 and replay["gaps"] == 0
+    bad = tmp_path / "not.mcap"
+    bad.write_bytes(b"hello")
+    r = gloverec("monitor", "--port", f"mcap:{bad}")
+    assert r.returncode == 1 and r.stderr.count("\n") == 1 and "not an MCAP file" in r.stderr

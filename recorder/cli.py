@@ -133,7 +133,11 @@ def _finish(monitor, args, what: str) -> int:
         raise GloverecError(f"no glove frames from {monitor.source.name} in {report['duration_s']:.1f} s "
                             f"({report['bytes']} bytes, {report['errors']} rejected): is it a glove?")
     if not args.json:
-        print(f"{what}: {json.dumps(report)}")
+        lat = ("-" if report["latency_ms_p50"] is None
+               else f"p50 {report['latency_ms_p50']:.2f} ms, p99 {report['latency_ms_p99']:.2f} ms")
+        print(f"{what}: {report['samples']} samples at {report['rate_hz']:.1f} Hz ({report['protocol']}), "
+              f"{report['errors']} errors, {report['gaps']} gaps, {report['queue_drops']} queue drops, "
+              f"{report['reconnects']} reconnects; latency {lat} ({report['clock']} clock)")
     return 0
 
 

@@ -79,6 +79,10 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--duration", type=_positive(float), help="seconds (default: until Ctrl-C)")
     b.add_argument("--baud", type=_positive(int), default=115200)
     b.set_defaults(func=cmd_bridge)
+
+    from envs import view
+
+    view.add_parser(sub)
     return p
 
 

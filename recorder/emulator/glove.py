@@ -45,14 +45,19 @@ class GloveBlock:
 
 
 class SyntheticGlove:
-    """Seeded, continuous glove data at ``rate_hz``; ``motion`` is a Motion kind ("gestures", "random")."""
+    """Seeded, continuous glove data at ``rate_hz``. ``motion`` is a Motion kind ("gestures", "random") or a
+    Motion-like object (``next_block(n) -> MotionBlock`` and ``rate_hz``, e.g. a scripted demonstration)."""
 
-    def __init__(self, motion: str = "gestures", rate_hz: float = 200.0, seed: int = 0,
+    def __init__(self, motion="gestures", rate_hz: float = 200.0, seed: int = 0,
                  pose_noise_deg: float = 0.5, size: HandSize = HandSize(), **imu_options):
         """pose_noise_deg: RMS angle of the orientation noise on ``pose``. imu_options go to ImuArray."""
         self.rate_hz = float(rate_hz)
         self.size = size
-        self.motion = Motion(motion, seed=seed, rate_hz=rate_hz)
+        if isinstance(motion, str):
+            motion = Motion(motion, seed=seed, rate_hz=rate_hz)
+        elif abs(float(motion.rate_hz) - self.rate_hz) > 1e-9:
+            raise ValueError(f"motion samples at {motion.rate_hz} Hz, the glove at {self.rate_hz} Hz")
+        self.motion = motion
         mounts = dorsal_mounts(size)[list(JOINT_MAP)]
         self.imus = ImuArray(rate_hz, seed=seed, mount_offsets=mounts, **imu_options)
         self.pose_sigma = np.radians(pose_noise_deg) / np.sqrt(3.0)  # per axis

@@ -1,0 +1,307 @@
+"""HandEnv: what every gloverec task shares. A robot hand (any robot of envs.robots) on a mocap-driven base,
+stepped at a fixed control rate, observed the way LeRobot datasets store it.
+
+Scene: a floor (the table top, z = 0), lights, cameras, and the hand: its root body has a free joint welded
+(soft, stiff) to a mocap body, the "base target", with gravity compensation on every hand body. The base
+target carries the glove palm frame; the task scripts its position and nominal orientation, and the action
+rotates it (the glove's palm orientation). A weld rather than a kinematic parent gives the hand real
+velocities, so friction carries a held object along.
+
+Action (float32): the actuators' position targets (ctrl ranges), then, with ``base_rotation``, the palm
+rotation as a rotation vector (rad, palm axes, relative to the task's nominal orientation, norm clipped to
+``max_base_angle_deg``). Out-of-range actions are clipped; ``info["applied_action"]`` is what was applied.
+
+Observation (dict):
+- ``observation.state``: hand joint positions, then velocities (``state_velocities``), then the palm
+  frame's position (3, m) and orientation (4, wxyz) in the world: names in ``state_names``.
+- ``observation.environment_state``: the task's (goal or object), names in ``environment_state_names``.
+- ``observation.images.<camera>``: uint8 (H, W, 3) for each of ``cameras`` (offscreen, MUJOCO_GL=egl).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+import yaml
+
+from envs.robots import load_robot
+from recorder import quat
+
+TASK_CONFIGS = Path(__file__).resolve().parents[2] / "configs" / "tasks"
+CAMERAS = ("front", "top", "side")
+
+
+@dataclass
+class TaskConfig:
+    control_hz: float = 30.0
+    max_physics_dt: float = 0.002     # the physics step is the control period split into equal steps <= this
+    episode_s: float = 6.0
+    cameras: tuple = ()               # any of CAMERAS; empty: state only (fastest)
+    image_size: tuple = (128, 128)    # (height, width)
+    base_rotation: bool = True        # the action carries the palm rotation (3)
+    max_base_angle_deg: float = 75.0
+    state_velocities: bool = True
+    weld_timeconst: float = 0.01      # s; how stiffly the hand base follows its target
+
+    @classmethod
+    def load(cls, name: str, **overrides):
+        """Defaults, then configs/tasks/<name>.yaml, then ``overrides``; unknown keys: one-line ValueError."""
+        values = {}
+        path = TASK_CONFIGS / f"{name}.yaml"
+        if path.is_file():
+            values.update(yaml.safe_load(path.read_text()) or {})
+        values.update(overrides)
+        fields = {f.name: f for f in dataclasses.fields(cls)}
+        unknown = sorted(set(values) - set(fields))
+        if unknown:
+            raise ValueError(f"unknown {name} task option(s) {', '.join(unknown)}; valid: {', '.join(fields)}")
+        for k, v in values.items():
+            if isinstance(v, list):
+                values[k] = tuple(tuple(x) if isinstance(x, list) else x for x in v)
+        cfg = cls(**values)
+        bad = [c for c in cfg.cameras if c not in CAMERAS]
+        if bad:
+            raise ValueError(f"unknown camera {bad[0]!r}; valid cameras: {', '.join(CAMERAS)}")
+        if cfg.control_hz <= 0 or cfg.episode_s <= 0:
+            raise ValueError("control_hz and episode_s must be positive")
+        return cfg
+
+
+def _look_at(pos, target):
+    """xyaxes of a camera at ``pos`` looking at ``target`` with the world z up."""
+    f = np.asarray(target, float) - np.asarray(pos, float)
+    f /= np.linalg.norm(f)
+    x = np.cross(f, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    return np.concatenate((x, np.cross(x, f)))
+
+
+class HandEnv(gym.Env):
+    """Base of the tasks; subclasses define ``config_class``, ``task_name``, ``_build_task(spec)``,
+    ``_reset_task()``, ``_base_target(t)``, ``_environment_state()`` (+ names) and ``_evaluate()``."""
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
+    config_class = TaskConfig
+    task_name = "base"
+    workspace = (0.0, 0.0, 0.25)  # where the cameras look
+
+    def __init__(self, robot: str = "glovehand", render_mode: str | None = None, config=None, **overrides):
+        self.config = config if config is not None else self.config_class.load(self.task_name, **overrides)
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"unknown render_mode {render_mode!r}; valid: rgb_array")
+        self.render_mode = render_mode
+        self.robot = load_robot(robot)
+        cfg = self.config
+        period = 1.0 / cfg.control_hz
+        self.n_substeps = int(np.ceil(period / cfg.max_physics_dt - 1e-9))
+        self.metadata = {**self.metadata, "render_fps": cfg.control_hz}
+
+        spec = self.robot.spec(floating=True)
+        spec.option.timestep = period / self.n_substeps
+        spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+        spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+        spec.option.impratio = 10.0
+        h, w = cfg.image_size
+        spec.visual.global_.offwidth = max(w, 640)
+        spec.visual.global_.offheight = max(h, 480)
+        spec.stat.extent = 0.5
+        self._build_scene(spec)
+        self._build_task(spec)
+        self.model = spec.compile()
+        self.data = mujoco.MjData(self.model)
+        self._init_indices()
+
+        nu = self.model.nu
+        lo, hi = self.model.actuator_ctrlrange.T
+        amax = np.radians(cfg.max_base_angle_deg)
+        if cfg.base_rotation:
+            lo, hi = np.concatenate((lo, [-amax] * 3)), np.concatenate((hi, [amax] * 3))
+        self.action_space = gym.spaces.Box(lo.astype(np.float32), hi.astype(np.float32), dtype=np.float32)
+        self.action_names = tuple(self.robot.actuator_names) + (("base.rx", "base.ry", "base.rz")
+                                                                 if cfg.base_rotation else ())
+        self.state_names = (tuple(f"{n}.pos" for n in self.joint_names)
+                            + (tuple(f"{n}.vel" for n in self.joint_names) if cfg.state_velocities else ())
+                            + ("palm.x", "palm.y", "palm.z", "palm.qw", "palm.qx", "palm.qy", "palm.qz"))
+        spaces = {
+            "observation.state": gym.spaces.Box(-np.inf, np.inf, (len(self.state_names),), np.float32),
+            "observation.environment_state": gym.spaces.Box(
+                -np.inf, np.inf, (len(self.environment_state_names),), np.float32),
+        }
+        for cam in cfg.cameras:
+            spaces[f"observation.images.{cam}"] = gym.spaces.Box(0, 255, (h, w, 3), np.uint8)
+        self.observation_space = gym.spaces.Dict(spaces)
+        self._renderer = None
+        self._nu = nu
+        self._ctrl = np.zeros(nu)
+        self._base_rot = quat.IDENTITY.copy()
+        self.t = 0.0
+        self.steps = 0
+
+    # ------------------------------------------------------------ scene
+    def _build_scene(self, spec: mujoco.MjSpec) -> None:
+        spec.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
+                         rgb1=[0.32, 0.36, 0.40], rgb2=[0.26, 0.30, 0.34], width=256, height=256)
+        spec.add_material(name="grid", textures=["", "grid"], texrepeat=[8, 8], reflectance=0.0)
+        wb = spec.worldbody
+        wb.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[1.0, 1.0, 0.05], material="grid",
+                    friction=[0.8, 0.005, 0.0001], contype=1, conaffinity=1)
+        wb.add_light(name="key", pos=[0.3, -0.4, 1.2], dir=[-0.25, 0.35, -1.0], diffuse=[0.7, 0.7, 0.7],
+                     castshadow=False)
+        wb.add_light(name="fill", pos=[-0.4, 0.4, 1.0], dir=[0.4, -0.4, -1.0], diffuse=[0.35, 0.35, 0.35],
+                     castshadow=False)
+        spec.visual.headlight.ambient = [0.35, 0.35, 0.35]
+        wb.add_body(name="base_target", mocap=True)
+        spec.add_equality(type=mujoco.mjtEq.mjEQ_WELD, name1="base_target", name2=self.robot.config.root_body,
+                          objtype=mujoco.mjtObj.mjOBJ_BODY, solref=[self.config.weld_timeconst, 1.0],
+                          data=[0, 0, 0, *self.robot.root_in_palm[0], *self.robot.root_in_palm[1], 1.0, 0.0])
+        ws = np.array(self.workspace)
+        for name, offset in (("front", (0.42, -0.30, 0.22)), ("top", (0.02, 0.0, 0.55)),
+                             ("side", (0.05, -0.50, 0.10))):
+            pos = ws + offset
+            wb.add_camera(name=name, pos=pos, xyaxes=_look_at(pos, ws), fovy=45.0)
+
+    def _init_indices(self) -> None:
+        m = self.model
+        robot_root = m.body(self.robot.config.root_body).id
+        self._base_qpos = m.jnt_qposadr[m.joint("base").id]
+        self._base_dof = m.jnt_dofadr[m.joint("base").id]
+        joints = [j for j in range(m.njnt)
+                  if m.body_rootid[m.jnt_bodyid[j]] == robot_root and m.jnt_type[j] != mujoco.mjtJoint.mjJNT_FREE]
+        self.joint_names = tuple(m.joint(j).name for j in joints)
+        self._jq = m.jnt_qposadr[joints]
+        self._jv = m.jnt_dofadr[joints]
+        self._mocap = m.body_mocapid[m.body("base_target").id]
+        self._palm_in_root = (-quat.rotate(quat.conj(self.robot.root_in_palm[1]), self.robot.root_in_palm[0]),
+                              quat.conj(self.robot.root_in_palm[1]))
+        self._act_qpos = m.jnt_qposadr[m.actuator_trnid[:, 0]]
+        self._robot_geoms = np.flatnonzero(m.body_rootid[m.geom_bodyid] == robot_root)
+
+    # ------------------------------------------------------------ the base
+    def palm_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """The glove palm frame's world pose (pos, quat) as the hand base is now."""
+        p, q = self.data.qpos[self._base_qpos:self._base_qpos + 3], self.data.qpos[self._base_qpos + 3:self._base_qpos + 7]
+        pr, qr = self._palm_in_root
+        return p + quat.rotate(q, pr), quat.mul(q, qr)
+
+    def _set_base_target(self, pos, q) -> None:
+        self.data.mocap_pos[self._mocap] = pos
+        self.data.mocap_quat[self._mocap] = q
+
+    def _place_base(self, pos, q) -> None:
+        """Put the hand (and its target) at palm pose (pos, q), at rest."""
+        self._set_base_target(pos, q)
+        rp, rq = self.robot.root_in_palm
+        self.data.qpos[self._base_qpos:self._base_qpos + 3] = pos + quat.rotate(q, rp)
+        self.data.qpos[self._base_qpos + 3:self._base_qpos + 7] = quat.mul(q, rq)
+        self.data.qvel[self._base_dof:self._base_dof + 6] = 0.0
+
+    # ------------------------------------------------------------ gym API
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        mujoco.mj_resetData(self.model, self.data)
+        self.t = 0.0
+        self.steps = 0
+        self._base_rot = quat.IDENTITY.copy()
+        self._reset_task()
+        pos, q = self._base_target(0.0)
+        self._place_base(pos, q)
+        self._ctrl = self.data.qpos[self._act_qpos].copy()
+        self.data.ctrl[:] = np.clip(self._ctrl, *self.model.actuator_ctrlrange.T)
+        mujoco.mj_forward(self.model, self.data)
+        return self._observation(), self._info(False)
+
+    def step(self, action):
+        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        if a.shape != self.action_space.shape:
+            raise ValueError(f"expected an action of shape {self.action_space.shape}, got {a.shape}")
+        a = np.clip(np.nan_to_num(a), self.action_space.low, self.action_space.high)
+        self.data.ctrl[:] = a[:self._nu]
+        if self.config.base_rotation:
+            rv = a[self._nu:]
+            angle = np.linalg.norm(rv)
+            amax = np.radians(self.config.max_base_angle_deg)
+            if angle > amax:
+                rv = rv * (amax / angle)
+                a[self._nu:] = rv
+            self._base_rot = quat.from_rotvec(rv)
+        self.t = (self.steps + 1) / self.config.control_hz
+        pos, q = self._base_target(self.t)
+        self._set_base_target(pos, quat.mul(q, self._base_rot))
+        mujoco.mj_step(self.model, self.data, nstep=self.n_substeps)
+        self.steps += 1
+        success, terminated, reward = self._evaluate()
+        truncated = not terminated and self.t >= self.config.episode_s - 1e-9
+        info = self._info(success)
+        info["applied_action"] = a.astype(np.float32)
+        return self._observation(), float(reward), bool(terminated), bool(truncated), info
+
+    def _info(self, success: bool) -> dict:
+        return {"is_success": bool(success), "t": self.t}
+
+    def _observation(self) -> dict:
+        d = self.data
+        parts = [d.qpos[self._jq]]
+        if self.config.state_velocities:
+            parts.append(d.qvel[self._jv])
+        parts.extend(self.palm_pose())
+        obs = {"observation.state": np.concatenate(parts).astype(np.float32),
+               "observation.environment_state": self._environment_state().astype(np.float32)}
+        for cam in self.config.cameras:
+            obs[f"observation.images.{cam}"] = self._render(cam)
+        return obs
+
+    def _render(self, camera: str) -> np.ndarray:
+        if self._renderer is None:
+            h, w = self.config.image_size
+            self._renderer = mujoco.Renderer(self.model, h, w)
+        self._renderer.update_scene(self.data, camera=camera)
+        return self._renderer.render()
+
+    def render(self):
+        if self.render_mode == "rgb_array":
+            return self._render(self.config.cameras[0] if self.config.cameras else "front")
+        return None
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    # ------------------------------------------------------------ helpers for tasks
+    def actuated_positions(self) -> np.ndarray:
+        """Positions (nu,) of the actuators' joints, comparable with ctrl targets."""
+        return self.data.actuator_length.copy()
+
+    def hand_contacts(self, geom: int) -> int:
+        """How many distinct hand bodies touch ``geom``."""
+        d, m = self.data, self.model
+        bodies = set()
+        for c in d.contact[:d.ncon]:
+            for a, b in ((c.geom1, c.geom2), (c.geom2, c.geom1)):
+                if a == geom and b in self._robot_geoms:
+                    bodies.add(m.geom_bodyid[b])
+        return len(bodies)
+
+    # ------------------------------------------------------------ for subclasses
+    environment_state_names: tuple = ()
+
+    def _build_task(self, spec: mujoco.MjSpec) -> None:
+        pass
+
+    def _reset_task(self) -> None:
+        pass
+
+    def _base_target(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        return np.array(self.workspace, float), quat.IDENTITY.copy()
+
+    def _environment_state(self) -> np.ndarray:
+        return np.zeros(0)
+
+    def _evaluate(self) -> tuple[bool, bool, float]:
+        """(success, terminated, reward) after a step."""
+        return False, False, 0.0

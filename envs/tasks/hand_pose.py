@@ -1,0 +1,104 @@
+"""HandPose: reach a target gesture and hold it.
+
+Each episode draws a gesture (recorder.emulator.motion.GESTURES); its goal, in ``observation.environment_state``,
+is where the robot's actuated joints come to rest when commanded the gesture's joint-mapped targets (the
+robot's retarget joint map), found once per gesture by simulation: a gesture whose fingers collide (the
+thumb on a curled finger) so gets a goal the robot can actually reach. Success: every actuated joint within
+``tolerance_deg`` of its target, continuously for ``hold_s``; the episode then terminates. The hand starts
+near the open hand; its base hovers, palm down, and rotates with the glove's palm.
+Reward: 1 while every joint is within tolerance, else -mean joint error (rad).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from envs.tasks.base import HandEnv, TaskConfig
+from recorder import quat
+from recorder.emulator.motion import GESTURES
+from recorder.hand.kinematics import LIMITS, interpolate_dip
+
+
+@dataclass
+class HandPoseConfig(TaskConfig):
+    episode_s: float = 5.0
+    gestures: tuple = ("fist", "pinch", "point", "two_fingers", "spiderman")
+    tolerance_deg: float = 8.0
+    hold_s: float = 0.5
+    start_noise_deg: float = 3.0      # joint noise of the starting (open) pose
+    terminate_on_success: bool = True
+
+
+class HandPoseEnv(HandEnv):
+    config_class = HandPoseConfig
+    task_name = "pose"
+    workspace = (0.0, 0.0, 0.25)
+
+    def __init__(self, robot: str = "glovehand", render_mode=None, config=None, **overrides):
+        from recorder.retarget import Retargeter
+
+        super().__init__(robot, render_mode, config, **overrides)
+        bad = [g for g in self.config.gestures if g not in GESTURES]
+        if bad:
+            raise ValueError(f"unknown gesture {bad[0]!r}; valid gestures: {', '.join(GESTURES)}")
+        self._map = Retargeter(self.robot, "joint", base_rotation=False)
+        self._goals = {}
+        self.goal_name = self.config.gestures[0]
+        self.goal_angles = GESTURES[self.goal_name]
+        self.goal = self._map.joint_map(self.goal_angles)
+        self._held = 0
+
+    def settled_goal(self, gesture: str) -> np.ndarray:
+        """Actuated joint positions (nu,) after holding ``gesture``'s joint-mapped targets for 1.5 s."""
+        if gesture not in self._goals:
+            import mujoco
+
+            d = mujoco.MjData(self.model)
+            d.qpos[:] = self.model.qpos0
+            d.mocap_pos[self._mocap] = self.workspace
+            d.mocap_quat[self._mocap] = quat.IDENTITY
+            rp, rq = self.robot.root_in_palm
+            d.qpos[self._base_qpos:self._base_qpos + 3] = np.array(self.workspace) + rp
+            d.qpos[self._base_qpos + 3:self._base_qpos + 7] = rq
+            d.ctrl[:] = self._map.joint_map(GESTURES[gesture])
+            mujoco.mj_step(self.model, d, nstep=int(1.5 / self.model.opt.timestep))
+            self._goals[gesture] = d.actuator_length.copy()
+        return self._goals[gesture]
+
+    @property
+    def environment_state_names(self):
+        return tuple(f"goal.{n}" for n in self.robot.actuator_names)
+
+    def _reset_task(self) -> None:
+        rng = self.np_random
+        self.goal_name = self.config.gestures[int(rng.integers(len(self.config.gestures)))]
+        self.goal_angles = GESTURES[self.goal_name].copy()
+        self.goal = self.settled_goal(self.goal_name)
+        start = GESTURES["open"] + rng.normal(0.0, np.radians(self.config.start_noise_deg), len(LIMITS))
+        start = interpolate_dip(np.clip(start, LIMITS[:, 0], LIMITS[:, 1]))
+        q = self._map.qpos(self._map.joint_map(start))
+        self.data.qpos[self._jq] = q[self._map.model.jnt_qposadr[[self._map.model.joint(n).id
+                                                                    for n in self.joint_names]]]
+        self._held = 0
+
+    def _base_target(self, t: float):
+        return np.array(self.workspace, float), quat.IDENTITY.copy()
+
+    def _environment_state(self) -> np.ndarray:
+        return self.goal
+
+    def joint_errors(self) -> np.ndarray:
+        return np.abs(self.actuated_positions() - self.goal)
+
+    def _evaluate(self):
+        err = self.joint_errors()
+        within = bool(np.all(err < np.radians(self.config.tolerance_deg)))
+        self._held = self._held + 1 if within else 0
+        success = self._held >= int(np.ceil(self.config.hold_s * self.config.control_hz - 1e-9))
+        reward = 1.0 if within else -float(err.mean())
+        return success, success and self.config.terminate_on_success, reward
+
+    def _info(self, success: bool) -> dict:
+        return {**super()._info(success), "goal": self.goal_name}

@@ -1,0 +1,58 @@
+"""DemoMotion: a scripted, human-like hand trajectory that quacks like recorder.emulator.motion.Motion.
+
+Keyframed joint angles joined by minimum-jerk moves, plus the small slow wander and physiological tremor of
+a real hand, and a palm that drifts a few degrees; sampled at ``rate_hz`` by ``next_block(n)`` (or at any
+times by ``at(t)``), so it can drive a SyntheticGlove, the emulator, or a Retargeter directly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from recorder import quat
+from recorder.emulator.motion import MotionBlock, _min_jerk, _Sines
+from recorder.hand.kinematics import LIMITS, N_JOINTS, clip, interpolate_dip
+
+
+class DemoMotion:
+    def __init__(self, times, poses, rng: np.random.Generator, rate_hz: float = 200.0,
+                 wander_deg: float = 0.75, tremor_deg: float = 0.05, palm_deg: float = 3.0,
+                 palm_pos=(0.0, 0.0, 0.0)):
+        """times (k,) ascending s; poses (k, 20) rad: the hand is at poses[i] at times[i], holds before the
+        first and after the last, and moves with minimum jerk in between (equal poses: a hold)."""
+        self.times = np.asarray(times, float)
+        self.poses = clip(np.asarray(poses, float))
+        if self.times.ndim != 1 or len(self.times) != len(self.poses) or np.any(np.diff(self.times) < 0):
+            raise ValueError("keyframe times must be ascending, one per pose")
+        self.rate_hz = float(rate_hz)
+        self.palm_pos = np.asarray(palm_pos, float)
+        self._wander = _Sines(rng, N_JOINTS, 2, 0.1, 0.5, np.radians(wander_deg))
+        self._tremor = _Sines(rng, N_JOINTS, 2, 8.0, 12.0, np.radians(tremor_deg))
+        self._palm = _Sines(rng, 3, 2, 0.05, 0.4, np.radians(palm_deg))
+        self._i = 0
+
+    @property
+    def duration(self) -> float:
+        return float(self.times[-1])
+
+    def angles(self, t) -> np.ndarray:
+        t = np.atleast_1d(np.asarray(t, float))
+        k = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(self.times) - 1)
+        k1 = np.minimum(k + 1, len(self.times) - 1)
+        span = self.times[k1] - self.times[k]
+        s = np.where(span > 0, (t - self.times[k]) / np.where(span > 0, span, 1.0), 1.0)
+        a = self.poses[k] + (self.poses[k1] - self.poses[k]) * _min_jerk(np.clip(s, 0.0, 1.0))[:, None]
+        a = a + self._wander(t) + self._tremor(t)
+        return interpolate_dip(np.clip(a, LIMITS[:, 0], LIMITS[:, 1]))
+
+    def at(self, t) -> MotionBlock:
+        t = np.atleast_1d(np.asarray(t, float))
+        palm_quat = quat.from_rotvec(self._palm(t))
+        return MotionBlock(t, self.angles(t), palm_quat, np.tile(self.palm_pos, (len(t), 1)))
+
+    def next_block(self, n: int) -> MotionBlock:
+        t = (self._i + np.arange(n)) / self.rate_hz
+        self._i += n
+        if n == 0:
+            return MotionBlock(t, np.zeros((0, N_JOINTS)), np.zeros((0, 4)), np.zeros((0, 3)))
+        return self.at(t)

@@ -1,0 +1,107 @@
+"""Fit a robot's joint map to fingertip IK: a starting point for ``retarget.joints`` of a new robot.
+
+    python -m recorder.retarget.fit shadow [--samples 400] [--actuators robot0:A_THJ4,...]
+
+Samples human poses (gestures with variability and random poses in the anatomical ranges), solves fingertip
+IK for each (posture pulled weakly toward the current joint map), and fits every listed actuator (default:
+those with a human source) as offset + sum(weight * angle) over the human joints of the finger(s) its
+current source uses. Prints the fitted ``tips`` and ``joints`` entries as YAML, and the mean fingertip error
+of the current and the fitted joint maps on the samples; review them, then paste into the robot's yaml.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+
+import numpy as np
+
+from recorder.emulator.motion import GESTURES
+from recorder.hand.kinematics import JOINTS, LIMITS, interpolate_dip
+from recorder.retarget.retargeter import Retargeter
+
+
+def sample_poses(n: int, seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    names = list(GESTURES)
+    out = []
+    for k in range(n):
+        if k % 2:
+            a = GESTURES[names[k // 2 % len(names)]] + rng.normal(0, np.radians(8), len(JOINTS))
+        else:
+            a = rng.uniform(LIMITS[:, 0], LIMITS[:, 1])
+        out.append(interpolate_dip(np.clip(a, LIMITS[:, 0], LIMITS[:, 1])))
+    return np.array(out)
+
+
+def mean_tip_error(r: Retargeter, poses: np.ndarray) -> float:
+    return float(np.mean([r(a)[1]["tip_error_mean"] for a in poses]))
+
+
+def fit(robot: str, samples: int = 400, actuators=None, seed: int = 0) -> dict:
+    joint = Retargeter(robot, "joint", base_rotation=False)
+    poses = sample_poses(samples, seed)
+    c = joint.config
+    # 1. tips: scale and offset that best match the joint-mapped fingers (thumb excluded: its base differs most)
+    raw = np.array([joint.human.tips(a) for a in poses])[:, 1:]
+    rob = np.array([joint.robot_tips(joint.qpos(joint.joint_map(a))) for a in poses])[:, 1:]
+    X = np.zeros((raw.size, 4))
+    X[:, 0] = raw.reshape(-1)
+    for k in range(3):
+        X[k::3, 1 + k] = 1.0
+    s, *o = np.linalg.lstsq(X, rob.reshape(-1), rcond=None)[0]
+    ik = Retargeter(robot, "ik", base_rotation=False)
+    ik.config = dataclasses.replace(ik.config, tip_scale=float(s), tip_offset=np.array(o),
+                                    ik=dataclasses.replace(c.ik, iterations=30, posture_cost=0.01))
+    ik.ik.config = ik.config.ik
+    ik.ik.posture.set_cost(np.where(ik.ik.posture.cost > 1, ik.ik.posture.cost, 0.01))
+    # 2. IK targets per pose
+    targets = []
+    for a in poses:
+        ik.reset()
+        targets.append(ik(a)[1]["joint_targets"])
+    targets = np.array(targets)
+    # 3. per actuator: least squares over its finger's human joints
+    names = actuators or [n for i, n in enumerate(c.actuators) if not c.constant[i]]
+    fitted = {}
+    for name in names:
+        i = c.actuators.index(name)
+        fingers = {JOINTS[j].split("_")[0] for j in np.flatnonzero(c.A[i])}
+        cols = [j for j, n in enumerate(JOINTS) if n.split("_")[0] in fingers and not n.endswith("dip")]
+        X = np.column_stack((poses[:, cols], np.ones(len(poses))))
+        w = np.linalg.lstsq(X, targets[:, i], rcond=1e-6)[0]
+        fitted[name] = ({JOINTS[j]: round(float(v), 3) for j, v in zip(cols, w[:-1]) if abs(v) > 1e-3},
+                        round(float(w[-1]), 3))
+    A, b = c.A.copy(), c.b.copy()
+    for name, (src, off) in fitted.items():
+        i = c.actuators.index(name)
+        A[i] = 0.0
+        for j, v in src.items():
+            A[i, JOINTS.index(j)] = v
+        b[i] = off
+    before = Retargeter(robot, "joint", base_rotation=False)
+    before.config = dataclasses.replace(c, tip_scale=float(s), tip_offset=np.array(o))
+    after = Retargeter(robot, "joint", base_rotation=False)
+    after.config = dataclasses.replace(before.config, A=A, b=b)
+    return {"tips": {"scale": round(float(s), 3), "offset": [round(float(v), 4) for v in o]},
+            "joints": fitted, "error_before_m": mean_tip_error(before, poses),
+            "error_after_m": mean_tip_error(after, poses)}
+
+
+def main(argv=None) -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("robot")
+    p.add_argument("--samples", type=int, default=400)
+    p.add_argument("--actuators", help="comma-separated actuator names (default: all with a human source)")
+    args = p.parse_args(argv)
+    out = fit(args.robot, args.samples, args.actuators.split(",") if args.actuators else None)
+    print(f"# mean fingertip error on {args.samples} poses: current map {out['error_before_m'] * 1000:.1f} mm, "
+          f"fitted {out['error_after_m'] * 1000:.1f} mm")
+    print(f"  tips: {{scale: {out['tips']['scale']}, offset: {out['tips']['offset']}}}")
+    print("  joints:")
+    for name, (src, off) in out["joints"].items():
+        print(f'    "{name}": {{source: {src}, offset: {off}}}')
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,130 @@
+"""Human hand -> robot action: 20 joint angles and the palm orientation in, actuator targets (and the base
+rotation) out, with the fingertip retargeting error of every frame.
+
+Modes: ``joint`` maps joint angles linearly (configs/robots/<name>.yaml, retarget.joints); ``ik`` places the
+robot's fingertips on the scaled human fingertips by inverse kinematics, seeded and regularised by the joint
+map. The palm orientation becomes a rotation vector (3, rad): the palm's rotation since the first frame after
+``reset()`` in the palm's own axes (``palm_reference="first"``; any glove heading works), or its absolute
+orientation in the glove's world (``"absolute"``). Environments apply it to their hand base.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from recorder import quat
+from recorder.hand.kinematics import N_JOINTS, HandSize
+from recorder.retarget.config import load_retarget_config
+from recorder.retarget.human import HumanHandFK
+
+MODES = ("joint", "ik")
+PALM_REFERENCES = ("first", "absolute")
+
+
+class Retargeter:
+    """``action, info = retargeter(angles, palm_quat)``. action: float32 (nu,) actuator targets, followed by
+    the palm rotation vector (3,) when ``base_rotation``. info: tip_error (5,) m per finger (robot fingertip
+    vs scaled human fingertip, palm frame), tip_error_mean, ik_iterations, joint_targets (nu,)."""
+
+    def __init__(self, robot="glovehand", mode: str = "joint", *, base_rotation: bool = True,
+                 palm_reference: str = "first", hand_size: HandSize = HandSize()):
+        from envs.robots import Robot, load_robot
+
+        if mode not in MODES:
+            raise ValueError(f"unknown retarget mode {mode!r}; valid modes: {', '.join(MODES)}")
+        if palm_reference not in PALM_REFERENCES:
+            raise ValueError(f"unknown palm reference {palm_reference!r}; valid: {', '.join(PALM_REFERENCES)}")
+        self.robot = robot if isinstance(robot, Robot) else load_robot(robot)
+        self.mode = mode
+        self.base_rotation = base_rotation
+        self.palm_reference = palm_reference
+        self.hand_size = hand_size
+        self.human = HumanHandFK(hand_size)
+        cfg = self.config = load_retarget_config(self.robot.config.retarget, self.robot.model,
+                                                 self.robot.config.source)
+        spec = self.robot.spec()
+        for c in cfg.couplings:  # couplings as joint equalities: exact in FK, hard constraints in IK
+            spec.add_equality(type=mujoco.mjtEq.mjEQ_JOINT, name1=c.joint, name2=c.leader,
+                              data=[0.0, c.ratio] + [0.0] * 10)
+        self.model = m = spec.compile()
+        self.data = mujoco.MjData(m)
+        self.nu = m.nu
+        self.action_dim = m.nu + (3 if base_rotation else 0)
+        trn = m.actuator_trntype == mujoco.mjtTrn.mjTRN_JOINT
+        if not trn.all():
+            raise ValueError(f"{self.robot.name}: retargeting needs joint-transmission actuators only")
+        self._act_qpos = m.jnt_qposadr[m.actuator_trnid[:, 0]]
+        self._act_dof = m.jnt_dofadr[m.actuator_trnid[:, 0]]
+        self._follow = np.array([m.jnt_qposadr[m.joint(c.joint).id] for c in cfg.couplings], int)
+        self._lead = np.array([m.jnt_qposadr[m.joint(c.leader).id] for c in cfg.couplings], int)
+        self._ratio = np.array([c.ratio for c in cfg.couplings])
+        self._tip_ids = self.robot.tip_site_ids
+        self._palm_ref = None
+        self.ik = None
+        if mode == "ik":
+            from recorder.retarget.ik import FingertipIK
+
+            cost = np.full(m.nv, cfg.ik.posture_cost)
+            cost[self._act_dof[cfg.constant]] = 100.0  # constant targets (e.g. a wrist): hold them
+            if cfg.couplings:  # coupled joints are set by their constraint, not pulled by the posture
+                cost[m.jnt_dofadr[[m.joint(c.joint).id for c in cfg.couplings]]] = 0.0
+            self.ik = FingertipIK(m, list(self.robot.config.fingertips.values()), cfg.ik, cost)
+
+    def reset(self) -> None:
+        """Start a new episode: the next palm orientation becomes the reference; IK restarts."""
+        self._palm_ref = None
+        if self.ik is not None:
+            self.ik.reset()
+
+    # ------------------------------------------------------------ pieces
+    def joint_map(self, angles) -> np.ndarray:
+        """Actuator targets (nu,) from human joint angles (20,) by the configured linear map, clipped."""
+        c = self.config
+        return np.clip(c.A @ np.asarray(angles, float) + c.b, c.lo, c.hi)
+
+    def qpos(self, ctrl) -> np.ndarray:
+        """Robot joint positions (nq,) with the actuated joints at ``ctrl`` and coupled joints following."""
+        q = self.model.qpos0.copy()
+        q[self._act_qpos] = ctrl
+        if len(self._follow):
+            q[self._follow] = self._ratio * q[self._lead]
+        return q
+
+    def human_tips(self, angles) -> np.ndarray:
+        """Scaled human fingertips (5, 3), palm frame, m: the robot's fingertip targets."""
+        return self.config.tip_scale * self.human.tips(angles) + self.config.tip_offset
+
+    def robot_tips(self, q) -> np.ndarray:
+        """Robot fingertips (5, 3), palm frame, m, at joint positions q (nq,)."""
+        self.data.qpos[:] = q
+        mujoco.mj_kinematics(self.model, self.data)
+        return self.data.site_xpos[self._tip_ids].copy()
+
+    def palm_rotvec(self, palm_quat) -> np.ndarray:
+        q = quat.normalize(np.asarray(palm_quat, float))
+        if self.palm_reference == "absolute":
+            return quat.to_rotvec(q)
+        if self._palm_ref is None:
+            self._palm_ref = q
+        return quat.to_rotvec(quat.mul(quat.conj(self._palm_ref), q))
+
+    # ------------------------------------------------------------ the call
+    def __call__(self, angles, palm_quat=None) -> tuple[np.ndarray, dict]:
+        angles = np.asarray(angles, float)
+        if angles.shape != (N_JOINTS,):
+            raise ValueError(f"expected {N_JOINTS} joint angles, got shape {angles.shape}")
+        ctrl = self.joint_map(angles)
+        targets = self.human_tips(angles)
+        iterations = 0
+        if self.ik is not None:
+            q, iterations = self.ik.solve(targets, self.qpos(ctrl))
+            ctrl = np.clip(q[self._act_qpos], self.config.lo, self.config.hi)
+        err = np.linalg.norm(self.robot_tips(self.qpos(ctrl)) - targets, axis=1)
+        action = ctrl
+        if self.base_rotation:
+            rv = np.zeros(3) if palm_quat is None else self.palm_rotvec(palm_quat)
+            action = np.concatenate((ctrl, rv))
+        info = {"tip_error": err, "tip_error_mean": float(err.mean()), "ik_iterations": iterations,
+                "joint_targets": ctrl}
+        return action.astype(np.float32), info

@@ -1,0 +1,66 @@
+"""Scripted demonstrators: they solve the tasks, vary between demos, and drive the synthetic glove."""
+
+import numpy as np
+import pytest
+
+import envs
+from recorder.demonstrator import DemoMotion, make_demonstrator
+from recorder.demonstrator.rollout import run_episode
+from recorder.emulator.glove import SyntheticGlove
+from recorder.retarget import Retargeter
+
+
+@pytest.mark.parametrize("robot", ["glovehand", "shadow"])
+@pytest.mark.parametrize("task", ["pose", "grasp"])
+def test_demonstrator_solves_the_task(task, robot):
+    env = envs.make(task, robot)
+    r = Retargeter(robot)
+    results = [run_episode(env, r, seed) for seed in (0, 1)]
+    assert all(x["success"] for x in results), results
+    if task == "pose":  # terminates as soon as the pose is held
+        assert all(x["steps"] < env.unwrapped.config.episode_s * env.unwrapped.config.control_hz for x in results)
+
+
+@pytest.mark.parametrize("task", ["pose", "grasp"])
+def test_demonstrations_through_the_synthetic_glove(task):
+    env = envs.make(task, "glovehand")
+    r = Retargeter("glovehand")
+    assert run_episode(env, r, 2, via="glove", latency_s=0.03, noise_deg=0.5)["success"]
+
+
+def test_demonstrations_vary_and_repeat():
+    env = envs.make("grasp", "glovehand")
+    env.reset(seed=0)
+    demo = make_demonstrator("grasp")
+    t = np.linspace(0, 4, 50)
+    a, b, c = (demo.plan(env, seed=s).at(t).angles for s in (1, 1, 2))
+    np.testing.assert_array_equal(a, b)
+    assert np.abs(a - c).max() > np.radians(2)
+
+
+def test_demo_motion_is_human_like():
+    env = envs.make("pose", "glovehand")
+    env.reset(seed=0)
+    m = make_demonstrator("pose").plan(env, seed=0)
+    block = m.next_block(int(3 * m.rate_hz))
+    v = np.diff(block.angles, axis=0) * m.rate_hz
+    assert np.abs(v).max() < np.radians(400)                 # no jumps
+    assert np.abs(v[:10]).max() < np.radians(20)             # starts at rest (minimum jerk)
+    assert np.abs(block.angles[-1] - env.unwrapped.goal_angles).max() < np.radians(6)
+    nxt = m.next_block(5)                                    # blocks continue one trajectory
+    assert nxt.t[0] == pytest.approx(block.t[-1] + 1 / m.rate_hz)
+
+
+def test_synthetic_glove_takes_a_motion_object():
+    env = envs.make("pose", "glovehand")
+    env.reset(seed=0)
+    motion = make_demonstrator("pose").plan(env, seed=0)
+    glove = SyntheticGlove(motion, rate_hz=motion.rate_hz, seed=0)
+    block = glove.next_block(100)
+    ref = motion.at(np.arange(100) / motion.rate_hz)
+    np.testing.assert_allclose(block.angles, ref.angles)
+    assert block.raw.shape == (100, 12, 7) and block.pose.shape == (100, 16, 4)
+    with pytest.raises(ValueError, match="Hz"):
+        SyntheticGlove(DemoMotion([0, 1], [ref.angles[0]] * 2, np.random.default_rng(0), 100.0), rate_hz=200.0)
+    with pytest.raises(ValueError, match="no demonstrator"):
+        make_demonstrator("juggle")

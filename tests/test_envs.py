@@ -1,0 +1,177 @@
+"""Robots and tasks: loading, kinematics, spaces, seeding, clipping, rendering, names."""
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+import pytest
+
+import envs
+from envs.robots import load_robot, robot_names
+from envs.robots.glovehand import OUT, build
+from envs.tasks import make_task
+from recorder.emulator.motion import GESTURES
+from recorder.hand import kinematics as kin
+from recorder.hand.skeleton import FINGERS
+
+ROBOTS = ("glovehand", "shadow")
+
+
+def test_robots_are_registered():
+    assert set(ROBOTS) <= set(robot_names())
+
+
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_robot_loads_and_steps(robot):
+    r = load_robot(robot)
+    assert r.model.nu == 20
+    env = gym.make("gloverec/HandPose-v0", robot=robot)
+    obs, info = env.reset(seed=0)
+    assert env.observation_space.contains(obs)
+    state0 = obs["observation.state"].copy()
+    target = env.unwrapped.goal
+    a = np.concatenate((target, np.zeros(3))).astype(np.float32)
+    for _ in range(10):
+        obs, reward, terminated, truncated, info = env.step(a)
+    assert env.observation_space.contains(obs)
+    assert np.isfinite(obs["observation.state"]).all()
+    assert not np.allclose(obs["observation.state"], state0)  # the fingers moved toward the goal
+    env.close()
+
+
+def test_glovehand_kinematics_match_the_hand_model():
+    m = mujoco.MjModel.from_xml_path(str(OUT))
+    d = mujoco.MjData(m)
+    qadr = [m.joint(j).qposadr[0] for j in kin.JOINTS]
+    rng = np.random.default_rng(0)
+    poses = list(GESTURES.values()) + [rng.uniform(kin.LIMITS[:, 0], kin.LIMITS[:, 1]) for _ in range(20)]
+    for a in poses:
+        d.qpos[qadr] = a
+        mujoco.mj_kinematics(m, d)
+        tips = np.array([d.site(f"{f}_tip").xpos for f in FINGERS])
+        _, _, expected = kin.forward(a, [1, 0, 0, 0])
+        np.testing.assert_allclose(tips, expected, atol=1e-6)
+    np.testing.assert_allclose(m.jnt_range[[m.joint(j).id for j in kin.JOINTS]], kin.LIMITS, atol=1e-6)
+
+
+def test_glovehand_mjcf_is_up_to_date():
+    assert OUT.read_text() == build(), "regenerate with: python -m envs.robots.glovehand"
+
+
+def test_glovehand_is_a_plausible_hand():
+    m = load_robot("glovehand").model
+    assert 0.25 < m.body_subtreemass[m.body("palm").id] < 0.6  # kg, an adult hand
+
+
+def test_shadow_uses_the_shipped_model_with_its_couplings():
+    from recorder.retarget import tendon_couplings
+
+    r = load_robot("shadow")
+    assert r.model.njnt == 24 and r.model.nu == 20
+    couplings = tendon_couplings(r.model)
+    assert {c.leader for c in couplings} == {f"robot0:{f}FJ1" for f in "FMRL"}
+    assert all(abs(c.ratio - 0.00805 / 0.00705) < 1e-9 for c in couplings)
+
+
+def test_unknown_robot_is_one_line_listing_the_valid_ones():
+    with pytest.raises(ValueError) as exc:
+        gym.make("gloverec/HandPose-v0", robot="nohand")
+    msg = str(exc.value)
+    assert "\n" not in msg and "nohand" in msg and all(r in msg for r in ROBOTS)
+
+
+def test_unknown_task_is_one_line_listing_the_valid_ones():
+    for make in (envs.make, make_task):
+        with pytest.raises(ValueError) as exc:
+            make("juggle")
+        msg = str(exc.value)
+        assert "\n" not in msg and "pose" in msg and "grasp" in msg
+
+
+def test_unknown_task_option_and_camera():
+    with pytest.raises(ValueError, match="valid"):
+        envs.make("pose", "glovehand", control_rate=30)
+    with pytest.raises(ValueError, match="valid cameras"):
+        envs.make("pose", "glovehand", cameras=("ceiling",))
+
+
+@pytest.mark.parametrize("task", ["pose", "grasp"])
+def test_seeded_resets_are_deterministic(task):
+    a, b = envs.make(task, "glovehand"), envs.make(task, "glovehand")
+    oa, _ = a.reset(seed=7)
+    ob, _ = b.reset(seed=7)
+    act = a.action_space.sample()
+    for _ in range(5):
+        oa, *_ = a.step(act)
+        ob, *_ = b.step(act)
+    for k in oa:
+        np.testing.assert_array_equal(oa[k], ob[k])
+    goals = {tuple(b.reset(seed=s)[0]["observation.environment_state"]) for s in range(6)}
+    assert len(goals) > 1  # and other seeds give other episodes
+
+
+def test_actions_are_clipped_and_reported():
+    env = envs.make("pose", "shadow")
+    env.reset(seed=0)
+    a = np.full(env.action_space.shape, 10.0, np.float32)
+    _, _, _, _, info = env.step(a)
+    applied = info["applied_action"]
+    nu = env.unwrapped.model.nu
+    np.testing.assert_allclose(applied[:nu], env.unwrapped.model.actuator_ctrlrange[:, 1], rtol=1e-6)
+    assert np.linalg.norm(applied[nu:]) <= np.radians(env.unwrapped.config.max_base_angle_deg) + 1e-5
+    np.testing.assert_allclose(env.unwrapped.data.ctrl, applied[:nu], rtol=1e-6)
+
+
+def test_control_rate_is_configurable():
+    env = envs.make("pose", "glovehand", control_hz=50)
+    env.reset(seed=0)
+    u = env.unwrapped
+    assert abs(u.n_substeps * u.model.opt.timestep - 1 / 50) < 1e-12
+    env.step(np.zeros(env.action_space.shape, np.float32))
+    assert abs(u.data.time - 1 / 50) < 1e-9
+
+
+def test_base_follows_the_palm_rotation():
+    env = envs.make("pose", "glovehand")
+    env.reset(seed=0)
+    u = env.unwrapped
+    a = np.concatenate((u.goal, [0.0, 0.4, 0.0])).astype(np.float32)  # 0.4 rad about the palm's y
+    for _ in range(15):
+        obs, *_ = env.step(a)
+    q = obs["observation.state"][-4:]
+    angle = 2 * np.arccos(min(1.0, abs(q[0])))
+    assert abs(angle - 0.4) < 0.03 and abs(q[2]) > 0.19
+
+
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_camera_images(robot):
+    env = envs.make("grasp", robot, cameras=("front", "top"), image_size=(64, 96))
+    obs, _ = env.reset(seed=0)
+    for cam in ("front", "top"):
+        img = obs[f"observation.images.{cam}"]
+        assert img.shape == (64, 96, 3) and img.dtype == np.uint8 and img.std() > 5
+    assert env.observation_space.contains(obs)
+    env.close()
+
+
+@pytest.mark.parametrize("robot", ROBOTS)
+@pytest.mark.parametrize("task", ["pose", "grasp"])
+def test_zero_action_does_not_succeed(task, robot):
+    env = envs.make(task, robot)
+    for seed in range(3):
+        env.reset(seed=seed)
+        zero = np.zeros(env.action_space.shape, np.float32)
+        while True:
+            _, _, terminated, truncated, info = env.step(zero)
+            if terminated or truncated:
+                break
+        assert not info["is_success"]
+
+
+def test_grasp_randomises_objects():
+    env = envs.make("grasp", "glovehand")
+    seen, sizes = set(), set()
+    for seed in range(12):
+        env.reset(seed=seed)
+        seen.add(env.unwrapped.object_shape)
+        sizes.add(tuple(np.round(env.unwrapped.object_half, 4)))
+    assert seen == {"box", "cylinder", "sphere"} and len(sizes) == 12

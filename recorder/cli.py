@@ -81,8 +81,10 @@ def build_parser() -> argparse.ArgumentParser:
     b.set_defaults(func=cmd_bridge)
 
     from envs import view
+    from recorder.record import cli as record_cli
 
     view.add_parser(sub)
+    record_cli.add_parsers(sub)
     return p
 
 

@@ -35,14 +35,18 @@ class DemoMotion:
     def duration(self) -> float:
         return float(self.times[-1])
 
-    def angles(self, t) -> np.ndarray:
+    def keyframe_angles(self, t) -> np.ndarray:
+        """The keyframe path alone (no wander or tremor), (n, 20) rad."""
         t = np.atleast_1d(np.asarray(t, float))
         k = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(self.times) - 1)
         k1 = np.minimum(k + 1, len(self.times) - 1)
         span = self.times[k1] - self.times[k]
         s = np.where(span > 0, (t - self.times[k]) / np.where(span > 0, span, 1.0), 1.0)
-        a = self.poses[k] + (self.poses[k1] - self.poses[k]) * _min_jerk(np.clip(s, 0.0, 1.0))[:, None]
-        a = a + self._wander(t) + self._tremor(t)
+        return self.poses[k] + (self.poses[k1] - self.poses[k]) * _min_jerk(np.clip(s, 0.0, 1.0))[:, None]
+
+    def angles(self, t) -> np.ndarray:
+        t = np.atleast_1d(np.asarray(t, float))
+        a = self.keyframe_angles(t) + self._wander(t) + self._tremor(t)
         return interpolate_dip(np.clip(a, LIMITS[:, 0], LIMITS[:, 1]))
 
     def at(self, t) -> MotionBlock:

@@ -37,12 +37,12 @@ from recorder.protocol.legacy_json import encode_line
 
 FIRMWARE = (0, 1, 0)       # the emulator reports itself as firmware 0.1.0
 GLOVE_ID = 0xE0E0_0001
-BLOCK_S = 0.25             # synthesise motion a quarter second at a time
+BLOCK_S = 0.05             # synthesise motion 50 ms at a time (short: less jitter for an in-process reader)
 MAX_PENDING = 16 * 1024    # bytes held back while the reader is slow; beyond this, frames are dropped
 
 
 class Emulator:
-    def __init__(self, rate_hz: float = 200.0, mode: str = "pose", motion: str = "gestures", seed: int = 0,
+    def __init__(self, rate_hz: float = 200.0, mode: str = "pose", motion="gestures", seed: int = 0,
                  link: str | None = None, keep_truth: bool = False):
         self.sense_hz = float(rate_hz)   # synthesis ("sensing") rate, fixed
         self.output_hz = float(rate_hz)  # frame rate; SET_RATE lowers it (at most the sensing rate)
@@ -60,6 +60,10 @@ class Emulator:
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self.truth_rows: list | None = [] if keep_truth else None  # ground truth per frame sent
+        self.realtime = True
+        self.horizon_s = 0.0      # session time up to which motion has been synthesised (fixed from then on)
+        self._buttons: list[float] = []
+        self._t_us = time.monotonic_ns() // 1000
 
     # ------------------------------------------------------------ the pseudo-terminal
     def plug(self) -> str:
@@ -101,43 +105,65 @@ class Emulator:
     def stop(self) -> None:
         self._stop.set()
 
-    def run(self, duration: float | None = None) -> None:
-        """Sense at the glove's rate and output at ``output_hz`` until ``duration`` s pass or ``stop()``."""
+    def run(self, duration: float | None = None, realtime: bool = True) -> None:
+        """Sense at the glove's rate and output at ``output_hz`` until ``duration`` s pass or ``stop()``.
+
+        ``realtime=False`` (bulk generation): no pacing, a virtual device clock, and writes that wait for the
+        reader instead of dropping frames, so nothing is lost however fast the reader runs."""
         if not self.plugged:
             self.plug()
-        sense_period = 1.0 / self.sense_hz
+        self.realtime = realtime
+        period = 1.0 / self.sense_hz
         start = time.monotonic()
-        next_status = start + 1.0
-        next_out = start
+        t0_us = time.monotonic_ns() // 1000
+        next_status = next_out = 0.0
         k = 0
         block, i = None, 0
         while not self._stop.is_set():
-            due = start + k * sense_period
-            if duration is not None and due - start >= duration:
+            t = k * period  # session time of this sample
+            if duration is not None and t >= duration:
                 break
-            delay = due - time.monotonic()
-            if delay > 0:
-                self._stop.wait(delay)
+            if realtime:
+                delay = start + t - time.monotonic()
+                if delay > 0:
+                    self._stop.wait(delay)
+                elif delay < -1.0:  # suspended or starved: resynchronise instead of bursting
+                    start -= delay
+                self._t_us = time.monotonic_ns() // 1000
+            else:
+                self._t_us = t0_us + round(t * 1e6)
             if block is None or i == len(block.t):
                 block, i = self.glove.next_block(max(1, int(BLOCK_S * self.sense_hz))), 0
-            if self.plugged and due >= next_out - 1e-9:
+                self.horizon_s = float(block.t[-1]) + period
+            if self.plugged and t >= next_out - 1e-9:
                 next_out += 1.0 / self.output_hz
                 self._poll_commands()
-                data = self._encode(block, i)
-                now = time.monotonic()
-                if now >= next_status:
+                data = self._due_buttons(float(block.t[i])) + self._encode(block, i)
+                if t >= next_status:
                     data += self._status()
-                    next_status = now + 1.0
+                    next_status = t + 1.0
                 self._write(data)
             i += 1
             k += 1
-            lag = time.monotonic() - due
-            if lag > 1.0:  # suspended or starved: skip ahead instead of bursting
-                k += int(lag / sense_period)
-                next_out = start + k * sense_period
+
+    def schedule_button(self, at_s: float) -> None:
+        """Press the reset button when the motion reaches session time ``at_s`` (the demonstrator's cue)."""
+        with self._lock:
+            self._buttons.append(at_s)
+            self._buttons.sort()
+
+    def _due_buttons(self, t: float) -> bytes:
+        out = b""
+        while self._buttons and t >= self._buttons[0] - 1e-9:
+            self._buttons.pop(0)
+            out += self._event(EventCode.BUTTON)
+        return out
+
+    def _now_us(self) -> int:
+        return self._t_us & 0xFFFFFFFF
 
     def _encode(self, block, i: int) -> bytes:
-        t_us = time.monotonic_ns() // 1000 & 0xFFFFFFFF
+        t_us = self._now_us()
         if self.mode == Mode.JSON:
             data, seq = encode_line(block.pose[i]), -1
         elif self.mode == Mode.POSE:
@@ -167,20 +193,23 @@ class Emulator:
     def _event(self, code: EventCode, arg: int = 0) -> bytes:
         if self.mode == Mode.JSON:
             return b""
-        return encode_frame(EventFrame(self._next_seq(), time.monotonic_ns() // 1000 & 0xFFFFFFFF, code, arg))
+        return encode_frame(EventFrame(self._next_seq(), self._now_us(), code, arg))
 
     def _status(self) -> bytes:
         if self.mode == Mode.JSON:
             return b""
         return encode_frame(StatusFrame(
-            self._next_seq(), time.monotonic_ns() // 1000 & 0xFFFFFFFF, FIRMWARE, self.mode,
-            int(self.sense_hz), int(self.output_hz), CalibState.DONE, 100, CLOCK_HOST_MONOTONIC, GLOVE_ID,
+            self._next_seq(), self._now_us(), FIRMWARE, self.mode, int(self.sense_hz), int(self.output_hz),
+            CalibState.DONE, 100, CLOCK_HOST_MONOTONIC if self.realtime else 0, GLOVE_ID,
             (1 << N_IMUS) - 1, MUX_MAP, JOINT_MAP))
 
     def _write(self, data: bytes) -> None:
         """Non-blocking write; a frame that does not fit behind a slow reader is dropped whole."""
         with self._lock:
             if self._master is None or not data:
+                return
+            if not self.realtime:
+                self._write_all(data)
                 return
             if self._poll.poll(0)[0][1] & select.POLLHUP:  # no reader has the port open: bytes go nowhere
                 self._pending = b""
@@ -201,6 +230,18 @@ class Emulator:
                 self._pending = self._pending[: len(self._pending) - len(data)]
             else:
                 self.sent_frames += 1
+
+    def _write_all(self, data: bytes) -> None:
+        """Bulk generation: wait for room rather than drop (the reader sets the pace)."""
+        view = memoryview(data)
+        while view and not self._stop.is_set():
+            try:
+                view = view[os.write(self._master, view):]
+            except BlockingIOError:
+                self._poll.poll(50)
+            except OSError:
+                return
+        self.sent_frames += 1
 
     # ------------------------------------------------------------ host commands
     def _poll_commands(self) -> None:

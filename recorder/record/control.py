@@ -1,0 +1,106 @@
+"""Episode control from the keyboard, over SSH and headless: the keys lerobot-record uses, read from stdin.
+
+On a terminal, stdin is put in cbreak mode and single keys act at once: → (or n, Enter) ends the episode and
+saves it, ← (or r) re-records it, Esc (or q) stops the session after saving what is done. When stdin is not a
+terminal (a pipe, a script), whole lines do the same: "next", "rerecord", "stop". The glove's reset button
+(an event frame) ends the episode like →.
+"""
+
+from __future__ import annotations
+
+import os
+import select
+import sys
+import termios
+import threading
+import tty
+
+NEXT, RERECORD, STOP = "next", "rerecord", "stop"
+
+_KEYS = {b"\x1b[C": NEXT, b"n": NEXT, b"\n": NEXT, b"\r": NEXT,
+         b"\x1b[D": RERECORD, b"r": RERECORD, b"\x1b": STOP, b"q": STOP}
+_LINES = {"next": NEXT, "n": NEXT, "": NEXT, "rerecord": RERECORD, "r": RERECORD, "stop": STOP, "q": STOP}
+
+
+class Control:
+    """Collects requests; the recording loop polls ``take()`` once per frame."""
+
+    def __init__(self, stdin=None, enabled: bool = True):
+        self._lock = threading.Lock()
+        self._pending: list[str] = []
+        self._stdin = stdin if stdin is not None else sys.stdin
+        self._saved_tty = None
+        self._stop = threading.Event()
+        self._thread = None
+        if enabled and self._stdin is not None and not self._stdin.closed:
+            self._thread = threading.Thread(target=self._run, daemon=True, name="gloverec-keys")
+            self._thread.start()
+
+    def request(self, what: str) -> None:
+        with self._lock:
+            self._pending.append(what)
+
+    def take(self) -> str | None:
+        """The oldest request, or None."""
+        with self._lock:
+            return self._pending.pop(0) if self._pending else None
+
+    def close(self) -> None:
+        self._stop.set()
+        if self._saved_tty is not None:
+            termios.tcsetattr(self._fd, termios.TCSADRAIN, self._saved_tty)
+            self._saved_tty = None
+
+    # ---------------------------------------------------------------- reader thread
+    def _run(self) -> None:
+        try:
+            self._fd = self._stdin.fileno()
+        except (OSError, ValueError):
+            return
+        if os.isatty(self._fd):
+            self._saved_tty = termios.tcgetattr(self._fd)
+            tty.setcbreak(self._fd)
+            self._keys()
+        else:
+            self._lines()
+
+    def _keys(self) -> None:
+        buf = b""
+        while not self._stop.is_set():
+            ready, _, _ = select.select([self._fd], [], [], 0.1)
+            if not ready:
+                if buf == b"\x1b":  # a lone Esc, not the start of an arrow key
+                    self.request(STOP)
+                buf = b""
+                continue
+            data = os.read(self._fd, 16)
+            if not data:
+                return
+            buf = self._parse(buf + data)
+
+    def _parse(self, buf: bytes) -> bytes:
+        """Act on the complete keys in ``buf``; return an incomplete escape sequence to wait on."""
+        while buf:
+            if buf.startswith(b"\x1b["):
+                if len(buf) < 3:
+                    return buf
+                key, buf = buf[:3], buf[3:]
+            elif buf.startswith(b"\x1b") and len(buf) == 1:
+                return buf
+            else:
+                key, buf = buf[:1], buf[1:]
+            if key in _KEYS:
+                self.request(_KEYS[key])
+        return b""
+
+    def _lines(self) -> None:
+        while not self._stop.is_set():
+            ready, _, _ = select.select([self._fd], [], [], 0.1)
+            if not ready:
+                continue
+            line = self._stdin.readline()
+            if not line:
+                return  # end of input: counts and durations drive the session
+            what = _LINES.get(line.strip().lower())
+            if what:
+                self.request(what)

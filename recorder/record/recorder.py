@@ -1,0 +1,343 @@
+"""The recording session: episodes of a fixed-rate loop from the glove through retargeting into the
+environment, written frame by frame into a crash-safe LeRobot dataset.
+
+Each frame k of an episode, at glove time tick_k = start + k / fps:
+  glove pose at tick_k (SLERP between the samples around it) -> joint angles -> retarget -> env.step
+  -> one dataset frame: the observation *before* the step, the action the env applied (after clipping),
+  the human pose, quality, and the real clocks. So action[k] moves state[k] to state[k+1], and lerobot's
+  timestamps are k / fps.
+In real time the loop ticks on the host clock and reads the glove ``delay_s`` behind it so that a sample on
+either side of the frame time has usually arrived; faster than real time it ticks on the glove's clock.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from recorder import GloverecError
+from recorder.hand.kinematics import joint_angles_from_relative
+from recorder.record.config import RecordConfig
+from recorder.record.control import NEXT, RERECORD, STOP, Control
+from recorder.record.features import dataset_features
+from recorder.record.glove_input import GloveInput
+from recorder.record.store import EpisodeStore
+
+FIRST_SAMPLE_TIMEOUT_S = 5.0
+
+
+@dataclass
+class EpisodeStats:
+    """What the loop counts during one episode; stored in the episode's sidecar metadata."""
+
+    frames: int = 0
+    held: int = 0                 # frames whose glove pose had to be held (the glove was late)
+    overruns: int = 0             # ticks that started more than one period late
+    jitter_s: list = field(default_factory=list)
+    latency_s: list = field(default_factory=list)
+    retarget_mm: list = field(default_factory=list)
+    decode0: dict = field(default_factory=dict)
+    drops0: int = 0
+
+    def summary(self, decode: dict, queue_drops: int) -> dict:
+        def pct(xs, q, scale=1e3):
+            return round(float(np.percentile(xs, q)) * scale, 3) if len(xs) else None
+
+        gaps = decode["gaps"] - self.decode0.get("gaps", 0)
+        drops = queue_drops - self.drops0
+        return {"frames": self.frames, "glove_dropped": gaps + drops, "glove_late": self.held,
+                "glove_errors": decode["errors"] - self.decode0.get("errors", 0),
+                "loop_overruns": self.overruns, "jitter_ms_p99": pct(self.jitter_s, 99),
+                "latency_ms_p50": pct(self.latency_s, 50), "latency_ms_p99": pct(self.latency_s, 99),
+                "retarget_error_mm_mean": round(float(np.mean(self.retarget_mm)), 3) if self.retarget_mm else None}
+
+
+class Recorder:
+    def __init__(self, cfg: RecordConfig, control: Control | None = None, out=sys.stderr):
+        import envs
+        from recorder.retarget import Retargeter
+
+        self.cfg = cfg
+        self.fast = cfg.is_fast
+        self.out = out
+        try:
+            env_opts = {"control_hz": float(cfg.fps), "cameras": tuple(cfg.cameras),
+                        "image_size": tuple(cfg.image_size)}
+            if cfg.episode_time_s:
+                env_opts["episode_s"] = float(cfg.episode_time_s)
+            self.env = envs.make(cfg.task, cfg.robot, **env_opts)
+        except ValueError as exc:
+            raise GloverecError(str(exc)) from None
+        self.u = self.env.unwrapped
+        self.retarget = Retargeter(cfg.robot, cfg.retarget, base_rotation=self.u.config.base_rotation)
+        self.demonstrator = None
+        if cfg.glove == "emulator":
+            from recorder.demonstrator import make_demonstrator
+
+            self.demonstrator = make_demonstrator(cfg.task)
+        self.features = dataset_features(self.u, use_videos=bool(cfg.cameras))
+        self.store = EpisodeStore(cfg.root_path, cfg.repo_id, cfg.fps, self.features,
+                                  robot_type=cfg.robot, resume=cfg.resume, use_videos=bool(cfg.cameras))
+        self.glove = GloveInput(cfg.glove, self.fast, rate_hz=cfg.glove_rate_hz, mode=cfg.glove_mode,
+                                seed=cfg.seed, fusion=self._fusion())
+        self.logger = None
+        self.log_rel = None
+        if cfg.log:
+            self._open_log()
+        self.control = control if control is not None else Control(enabled=not self.fast or sys.stdin.isatty())
+        self.period = 1.0 / cfg.fps
+        self.delay_s = 0.0 if self.fast else 1.0 / cfg.glove_rate_hz
+        self._last_line = 0.0
+
+    def _fusion(self):
+        if self.cfg.glove_mode != "raw" and self.cfg.glove == "emulator":
+            return None
+        try:
+            from recorder.fusion.host import HostFusion
+        except ImportError:
+            return None
+        return HostFusion()
+
+    def _open_log(self) -> None:
+        from recorder.log.writer import McapLogger
+
+        logs = self.store.work / "logs"
+        logs.mkdir(parents=True, exist_ok=True)
+        name = time.strftime("session-%Y%m%d-%H%M%S.mcap")
+        self.logger = McapLogger(logs / name, {"source": self.cfg.glove, "repo_id": self.cfg.repo_id,
+                                               "robot": self.cfg.robot, "task": self.cfg.task,
+                                               "fps": str(self.cfg.fps)})
+        self.glove.source.taps.append(self.logger)
+        self.log_rel = f"logs/{name}"
+
+    # ------------------------------------------------------------ the session
+    def run(self) -> dict:
+        """Record until ``episodes`` are saved or the user stops; returns a summary."""
+        cfg = self.cfg
+        saved, rerecorded, lost = [], 0, 0
+        try:
+            self.glove.open()
+            self._say(f"recording {cfg.episodes} episode(s) of {cfg.task} on {cfg.robot} from {self.glove.spec} "
+                      f"({'faster than real time' if self.fast else 'real time'}) into {cfg.root_path}")
+            while len(saved) < cfg.episodes:
+                index = self.store.num_episodes
+                outcome, result = self._one_episode(index)
+                if outcome == "saved":
+                    saved.append(result)
+                    self._say(f"episode {index} saved: {result['frames']} frames, success={result['success']}, "
+                              f"late {result['glove_late']}, dropped {result['glove_dropped']}, "
+                              f"latency p99 {result['latency_ms_p99']} ms")
+                elif outcome == "rerecord":
+                    rerecorded += 1
+                    self._say(f"episode {index} discarded: re-recording it")
+                elif outcome == "lost":
+                    lost += 1
+                    self._say(f"episode {index} discarded: the glove went away; it will be re-recorded")
+                if outcome == "stop" or (outcome == "saved" and result.get("stop")):
+                    break
+                if outcome == "ended":
+                    self._say("the glove source ended")
+                    break
+        finally:
+            self.close()
+        return {"root": str(cfg.root_path), "repo_id": cfg.repo_id, "episodes_saved": len(saved),
+                "total_episodes": self.store.num_episodes, "total_frames": self.store.num_frames,
+                "rerecorded": rerecorded, "lost": lost,
+                "success_rate": round(float(np.mean([s["success"] for s in saved])), 3) if saved else None,
+                "log": self.log_rel}
+
+    def close(self) -> None:
+        self.glove.close()
+        self.store.close()
+        if self.logger is not None:
+            self.logger.close()
+        self.control.close()
+        self.env.close()
+
+    # ------------------------------------------------------------ one episode
+    def _one_episode(self, index: int) -> tuple[str, dict | None]:
+        seed = self.cfg.seed + index
+        obs, info = self.env.reset(seed=seed)
+        self.task_text = self.cfg.task_text or task_text(self.cfg.task, info)
+        self.retarget.reset()
+        if self.demonstrator is not None:
+            self.glove.demonstrate(self.demonstrator.plan(self.u, seed=seed))
+        start = self._wait_for_start()
+        if start is None:
+            return ("ended" if self.glove.finished else "stop"), None
+        if self.logger is not None:
+            self.logger.mark("episode_start", episode=index, seed=seed, glove_time_s=start)
+        return self._record(index, seed, obs, start)
+
+    def _wait_for_start(self) -> float | None:
+        """The reset period: ends at the glove's button, → on the keyboard, or after reset_time_s."""
+        g = self.glove
+        if self.fast:
+            if not g.wait_past(float("-inf"), FIRST_SAMPLE_TIMEOUT_S):
+                raise GloverecError(f"no glove frames from {g.spec} in {FIRST_SAMPLE_TIMEOUT_S:.0f} s")
+        g.buttons.clear() if self.demonstrator is None else None
+        begin = g.now()
+        limit = float("inf") if self.demonstrator is not None else self.cfg.reset_time_s
+        wall_end = time.monotonic() + (30.0 if self.demonstrator is not None else self.cfg.reset_time_s + 30.0)
+        while True:
+            g.poll(timeout=0.02)
+            button = g.take_button()
+            if button is not None:
+                return button
+            what = self.control.take()
+            if what == STOP:
+                return None
+            if what == NEXT or g.now() - begin >= limit:
+                return g.now()
+            if g.finished and g.poll() == 0:
+                return None
+            if time.monotonic() > wall_end and g.track.newest_s is None:
+                raise GloverecError(f"no glove frames from {g.spec}: is it connected and sending?")
+            if self.fast and g.track.newest_s is not None:
+                g.wait_past(g.now() + self.period)  # let glove time advance
+
+    def _record(self, index: int, seed: int, obs: dict, start: float) -> tuple[str, dict | None]:
+        cfg, g, u = self.cfg, self.glove, self.u
+        src = g.source
+        stats = EpisodeStats(decode0=dict(src.decoder.stats.as_dict()), drops0=src.stats().queue_drops)
+        n_max = int(round(u.config.episode_s * cfg.fps))
+        host0 = time.monotonic() - (g.now() - start) if not self.fast else time.monotonic()
+        success, outcome, stop_after = False, "saved", False
+        for k in range(n_max):
+            tick = start + k * self.period
+            if self.fast:
+                if not g.wait_past(tick):
+                    outcome = "ended"
+                    break
+                host_tick = time.monotonic()
+            else:
+                host_tick = host0 + k * self.period
+                delay = host_tick - time.monotonic()
+                if delay > 0:
+                    time.sleep(delay)
+                late = time.monotonic() - host_tick
+                stats.jitter_s.append(abs(late))
+                if late > self.period:
+                    stats.overruns += 1
+                g.poll()
+                if not g.connected:
+                    return self._lost(index)
+            pose = g.track.at(tick - self.delay_s)
+            if pose is None:
+                return self._lost(index)
+            stats.held += pose.held
+            angles = joint_angles_from_relative(pose.quats)
+            action, rinfo = self.retarget(angles, pose.quats[0])
+            sample = pose.extra  # (t_us, rx_ns, fusion quality) of the newest sample used
+            t_act = time.monotonic()
+            latency = t_act - (sample.rx_ns * 1e-9 if self.fast else pose.newest_s)
+            nxt, _, terminated, truncated, info = self.env.step(action)
+            frame = {
+                "observation.state": obs["observation.state"],
+                "observation.environment_state": obs["observation.environment_state"],
+                "action": info["applied_action"],
+                "observation.glove": np.concatenate((angles, pose.quats[0])).astype(np.float32),
+                "quality.latency_ms": np.float32([latency * 1e3]),
+                "quality.glove_age_ms": np.float32([pose.age_s * 1e3]),
+                "quality.retarget_error_mm": np.float32([rinfo["tip_error_mean"] * 1e3]),
+                "quality.fusion": np.float32([sample.quality or 0.0]),
+                "time.host_s": np.float64([host_tick]),
+                "time.device_s": np.float64([self._device_time(pose, tick - self.delay_s)]),
+                "task": self.task_text,
+            }
+            for cam in u.config.cameras:
+                frame[f"observation.images.{cam}"] = obs[f"observation.images.{cam}"]
+            self.store.add_frame(frame)
+            stats.frames += 1
+            stats.latency_s.append(latency)
+            stats.retarget_mm.append(rinfo["tip_error_mean"] * 1e3)
+            obs = nxt
+            success = bool(info["is_success"])
+            self._status_line(index, k, n_max, stats)
+            what = self.control.take()
+            if what == RERECORD:
+                self.store.discard_episode()
+                return "rerecord", None
+            if what in (NEXT, STOP):
+                stop_after = what == STOP
+                break
+            if g.take_button() is not None and self.demonstrator is None:
+                break  # the glove's button ends the episode (the emulated demonstrator uses it to start one)
+            if terminated or truncated:
+                break
+        if stats.frames == 0:
+            self.store.discard_episode()
+            return outcome if outcome == "ended" else "stop", None
+        decode = src.decoder.stats.as_dict()
+        result = {"task": self.task_text, "seed": seed, "success": success, "robot": cfg.robot,
+                  "env_task": cfg.task, "fps": cfg.fps, "glove": g.spec, "realtime": not self.fast,
+                  "retarget": cfg.retarget, "start_glove_time_s": start,
+                  **stats.summary(decode, src.stats().queue_drops)}
+        if self.logger is not None:
+            self.logger.mark("episode_end", episode=index, frames=stats.frames, success=success)
+            self.logger.flush()
+            result["log"] = {"file": self.log_rel, **_log_range(self.logger, start, g, stats.frames, self.period)}
+        self.store.save_episode(result)
+        if stop_after:
+            result["stop"] = True
+        return "saved", result
+
+    def _lost(self, index: int) -> tuple[str, None]:
+        """The glove vanished mid-episode: drop the episode, wait for the glove, then carry on."""
+        self.store.discard_episode()
+        if self.logger is not None:
+            self.logger.mark("episode_discarded", episode=index, reason="glove disconnected")
+        self._say("the glove is gone: waiting for it to come back (Ctrl-C to stop)")
+        while not self.glove.connected:
+            if self.control.take() == STOP:
+                break
+            time.sleep(0.1)
+        self.glove.track = type(self.glove.track)()
+        return "lost", None
+
+    def _device_time(self, pose, t: float) -> float:
+        """The glove's device clock (s, unwrapped) at loop time ``t``; -1 for gloves without one."""
+        if self.fast:
+            return t
+        if pose.extra.t_us < 0:
+            return -1.0
+        return self.glove.source.clock.unwrap(pose.extra.t_us, pose.extra.rx_ns) - (pose.newest_s - t)
+
+    # ------------------------------------------------------------ reporting
+    def _say(self, text: str) -> None:
+        if self.out is not None:
+            print(("\r\x1b[K" if self.out.isatty() else "") + text, file=self.out, flush=True)
+
+    def _status_line(self, index: int, k: int, n: int, stats: EpisodeStats) -> None:
+        if self.out is None or not self.out.isatty() or time.monotonic() - self._last_line < 0.25:
+            return
+        self._last_line = time.monotonic()
+        lat = np.percentile(stats.latency_s, 99) * 1e3 if stats.latency_s else 0.0
+        self.out.write(f"\r\x1b[Kepisode {index}  frame {k + 1}/{n}  late {stats.held}  "
+                       f"overruns {stats.overruns}  latency p99 {lat:.1f} ms  "
+                       f"glove {'up' if self.glove.connected else 'DOWN'}")
+        self.out.flush()
+
+
+def task_text(task: str, info: dict) -> str:
+    """The episode's instruction, from what the environment drew at reset."""
+    if task == "pose" and "goal" in info:
+        return f"make the {info['goal'].replace('_', ' ')} gesture"
+    if task == "grasp" and "object" in info:
+        return f"grasp the {info['object']} and keep holding it"
+    return task
+
+
+def _log_range(logger, start: float, g: GloveInput, frames: int, period: float) -> dict:
+    """The episode's span in the MCAP log's time base (ns since the epoch)."""
+    if g.fast:
+        return {"glove_time_start_s": start, "glove_time_end_s": start + frames * period}
+    off = logger.log_time_offset_ns
+    return {"start_ns": int(start * 1e9) + off, "end_ns": int((start + frames * period) * 1e9) + off}
+
+
+def record(cfg: RecordConfig) -> dict:
+    return Recorder(cfg).run()

@@ -10,6 +10,9 @@
 #ifndef GLOVE_SERIAL
 #define GLOVE_SERIAL Serial  // USB serial; Serial1 for a true UART on pins 0/1
 #endif
+#ifndef GLOVE_MODE
+#define GLOVE_MODE 1  // output at boot: 0 raw, 1 pose, 2 json, 3 compact (52-byte frames: the UART build's)
+#endif
 
 namespace glove_config {
 
@@ -22,6 +25,7 @@ constexpr uint32_t kI2cClockHz = 400000;    // MPU9250 I2C fast mode (the datash
 constexpr uint32_t kSerialBaud = 115200;    // ignored by USB serial; the line rate of Serial1
 constexpr uint16_t kSenseRateHz = 100;      // 12 reads of 23 bytes at 400 kHz take ~7.5 ms (README)
 constexpr uint16_t kOutputRateHz = 50;
+constexpr uint8_t kMode = GLOVE_MODE;       // the host's set_mode changes it
 constexpr uint8_t kMissesBeforeFault = 3;   // consecutive failed reads before an IMU is reported and skipped
 constexpr uint32_t kRetryMs = 100;          // a faulted IMU is tried again this often (one cheap read)
 constexpr uint8_t kFirmware[3] = {1, 0, 0};

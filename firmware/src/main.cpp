@@ -51,6 +51,7 @@ gc::GloveSettings settings() {
     }
     s.sense_rate_hz = kSenseRateHz;
     s.output_rate_hz = kOutputRateHz;
+    s.mode = static_cast<gc::Mode>(kMode);
     for (uint8_t k = 0; k < 3; ++k) s.firmware[k] = kFirmware[k];
     s.glove_id = glove_id();
     return s;

@@ -7,6 +7,7 @@
 //     glove   gc::Glove::sense on register counts with a pose frame every cycle (everything the loop does
 //             besides I2C and the serial port)
 //     json    parent-relative pose + legacy JSON line per cycle
+//     compact parent-relative pose + 20 joint angles + pose_compact frame per cycle
 // Inputs are precomputed at start-up, so a run with CYCLES = 0 measures the start-up alone; bench/firmware.py
 // subtracts it. Prints a checksum so the work cannot be optimised away.
 #include <cmath>
@@ -50,7 +51,7 @@ void make_inputs() {
 
 int main(int argc, char** argv) {
     if (argc != 3) {
-        std::fprintf(stderr, "usage: glove_core_bench filter|pose|cycle|glove|json CYCLES\n");
+        std::fprintf(stderr, "usage: glove_core_bench filter|pose|cycle|glove|json|compact CYCLES\n");
         return 2;
     }
     const char* what = argv[1];
@@ -58,7 +59,8 @@ int main(int argc, char** argv) {
     const bool do_filter = !std::strcmp(what, "filter") || !std::strcmp(what, "cycle");
     const bool do_pose = !std::strcmp(what, "pose") || !std::strcmp(what, "cycle");
     const bool do_glove = !std::strcmp(what, "glove"), do_json = !std::strcmp(what, "json");
-    if (!do_filter && !do_pose && !do_glove && !do_json) {
+    const bool do_compact = !std::strcmp(what, "compact");
+    if (!do_filter && !do_pose && !do_glove && !do_json && !do_compact) {
         std::fprintf(stderr, "unknown workload %s\n", what);
         return 2;
     }
@@ -99,6 +101,15 @@ int main(int argc, char** argv) {
                                      : encode_pose(static_cast<uint16_t>(c), static_cast<uint32_t>(c), rel,
                                                    hand.measured_mask(), frame, sizeof frame);
             sum += static_cast<uint32_t>(n) + (do_json ? static_cast<uint8_t>(line[n / 2]) : frame[n / 2]);
+        }
+        if (do_compact) {
+            Quat rel[kSegments];
+            real angles[kJoints];
+            hand.relative_pose(rel);
+            joint_angles(rel, angles);
+            const size_t n = encode_pose_compact(static_cast<uint16_t>(c), static_cast<uint32_t>(c), rel[0], angles,
+                                                 frame, sizeof frame);
+            sum += static_cast<uint32_t>(n) + frame[n / 2];
         }
     }
     const Quat q = hand.filter(3).quaternion();

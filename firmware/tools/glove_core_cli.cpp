@@ -2,7 +2,8 @@
 // (tests/test_firmware.py) and "firmware in the loop" (synthetic IMU data -> the glove's exact code -> bytes).
 //
 //   glove_core_cli run [options] SAMPLES.bin      run the glove (gc::Glove) on recorded/synthetic IMU samples
-//   glove_core_cli pose|raw|status|event|json     encode records read from stdin (formats below)
+//   glove_core_cli pose|compact|raw|status|event|json   encode records read from stdin (formats below)
+//   glove_core_cli angles                         16 relative quaternions -> 20 joint angles (gc::joint_angles)
 //   glove_core_cli command                        decode a host byte stream from stdin, one line per chunk
 //
 // SAMPLES.bin: little-endian float32, sample-major; for every sample, for every IMU: gx gy gz (rad/s, the IMU's
@@ -10,9 +11,12 @@
 // IMU's six values means that IMU did not answer in that cycle. The values are quantised to MPU9250 register
 // counts at +-16 g / +-2000 dps (as the real glove reads them) before the core sees them; temperature 25 degC.
 //
+// With --stamped every sample starts with u32 t_us, the device time of that cycle (the emulator passes the
+// host's CLOCK_MONOTONIC in microseconds), and a u8 of flags; otherwise t_us = t0 + (k + 1) * 1e6 / sense rate for sample k.
+//
 // run options:
 //   --n-imu N            IMUs per sample (12; 16 uses the 16-IMU layout)       --sense-rate HZ  (1000)
-//   --output-rate HZ     (100)                                                 --mode pose|raw|json (pose)
+//   --output-rate HZ     (100)                                       --mode pose|raw|json|compact (pose)
 //   --calib-samples N    gyro calibration length at boot; 0 = none (256)       --t0 US  first sample time (0)
 //   --rx FILE            host bytes: records of u32 cycle, u16 length, bytes; delivered before that cycle
 //   --button K           press the reset button before cycle K (repeatable)
@@ -22,14 +26,20 @@
 //   --live               SAMPLES.bin may be "-" (stdin): frames are flushed after every cycle, and with
 //   --rx-fifo PATH       host bytes are read from this FIFO (non-blocking) before every cycle. For running
 //                        the compiled core as the emulator's firmware: samples in, frames out, commands back.
+//   --stamped            every sample record starts with u32 t_us (see above) and u8 flags (bit 0: the reset
+//                        button was pressed before this cycle)
+//   --ack-fd FD          after each cycle (its frames flushed) write one byte to file descriptor FD: a driver
+//                        that waits for it knows every frame of that cycle is readable (FirmwareCore's sync)
 //
 // Encoder record formats (stdin, little-endian, repeated):
 //   pose:   u16 seq, u32 t_us, u16 measured_mask, 64 x float32 (16 quaternions w, x, y, z)
+//   compact: u16 seq, u32 t_us, 4 x float32 palm quaternion, 20 x float32 joint angles (rad)
 //   raw:    u16 seq, u32 t_us, u8 n_imu, u8 accel_fs_g, u16 gyro_fs_dps, u16 ok_mask, 16 x 7 x int16
 //   status: u16 seq, u32 t_us, 3 x u8 firmware, u8 mode, u16 sense, u16 output, u8 calib_state,
 //           u8 calib_progress, u8 clock_flags, u32 glove_id, u16 ok_mask, u8 n_imu, 16 x u8 mux, 16 x u8 joint
 //   event:  u16 seq, u32 t_us, u8 code, u8 arg
 //   json:   64 x float32
+// angles: 64 x float64 in (16 quaternions), 20 x float64 out (radians).
 // command output: "code arg seq t_us" per valid command, "reject" per invalid chunk.
 #include <fcntl.h>
 #include <unistd.h>
@@ -82,6 +92,7 @@ struct FileSink final : FrameSink {
 int encode_records(const char* kind) {
     size_t rec = 0;
     if (!std::strcmp(kind, "pose")) rec = 8 + 256;
+    else if (!std::strcmp(kind, "compact")) rec = 6 + 96;
     else if (!std::strcmp(kind, "raw")) rec = 12 + 16 * 7 * 2;
     else if (!std::strcmp(kind, "status")) rec = 6 + 18 + 32;
     else if (!std::strcmp(kind, "event")) rec = 8;
@@ -107,6 +118,11 @@ int encode_records(const char* kind) {
             Quat q[16];
             for (auto& c : q) c = {r.f32(), r.f32(), r.f32(), r.f32()};
             n = encode_pose(seq, t, q, mask, out, sizeof out);
+        } else if (!std::strcmp(kind, "compact")) {
+            const Quat palm{r.f32(), r.f32(), r.f32(), r.f32()};
+            real angles[kJointAngles];
+            for (auto& a : angles) a = r.f32();
+            n = encode_pose_compact(seq, t, palm, angles, out, sizeof out);
         } else if (!std::strcmp(kind, "raw")) {
             const uint8_t n_imu = r.u8(), afs = r.u8();
             const uint16_t gfs = r.u16(), ok = r.u16();
@@ -142,6 +158,20 @@ int encode_records(const char* kind) {
     return 0;
 }
 
+int joint_angles_of_poses() {
+    double in[64];
+    while (read_exact(stdin, in, sizeof in)) {
+        Quat q[kSegments];
+        for (int s = 0; s < kSegments; ++s) q[s] = {in[4 * s], in[4 * s + 1], in[4 * s + 2], in[4 * s + 3]};
+        real a[kJoints];
+        joint_angles(q, a);
+        double out[kJoints];
+        for (int j = 0; j < kJoints; ++j) out[j] = a[j];
+        std::fwrite(out, 8, kJoints, stdout);
+    }
+    return 0;
+}
+
 int decode_commands() {
     CommandReader reader;
     uint32_t rejected = 0;
@@ -170,7 +200,8 @@ int run(int argc, char** argv) {
     s.calibration.samples = 256;
     const char *input = nullptr, *rx_path = nullptr, *trace_path = nullptr, *pose_path = nullptr, *out_path = nullptr;
     const char* fifo_path = nullptr;
-    bool live = false;
+    bool live = false, stamped = false;
+    int ack_fd = -1;
     uint32_t t0 = 0;
     std::vector<long> buttons;
     for (int i = 0; i < argc; ++i) {
@@ -193,10 +224,16 @@ int run(int argc, char** argv) {
         else if (!std::strcmp(a, "--out")) out_path = val();
         else if (!std::strcmp(a, "--live")) live = true;
         else if (!std::strcmp(a, "--rx-fifo")) fifo_path = val();
+        else if (!std::strcmp(a, "--stamped")) stamped = true;
+        else if (!std::strcmp(a, "--ack-fd")) ack_fd = std::atoi(val());
         else if (!std::strcmp(a, "--mode")) {
             const char* m = val();
-            s.mode = !std::strcmp(m, "raw") ? Mode::Raw : !std::strcmp(m, "json") ? Mode::Json : Mode::Pose;
-            if (std::strcmp(m, "raw") && std::strcmp(m, "json") && std::strcmp(m, "pose")) die("bad mode ", m);
+            const char* names[] = {"raw", "pose", "json", "compact"};  // Mode values 0..3
+            int found = -1;
+            for (int k = 0; k < 4; ++k)
+                if (!std::strcmp(m, names[k])) found = k;
+            if (found < 0) die("bad mode ", m);
+            s.mode = static_cast<Mode>(found);
         } else if (a[0] == '-' && a[1] != '\0') die("unknown option ", a);
         else input = a;
     }
@@ -239,16 +276,22 @@ int run(int argc, char** argv) {
     FileSink sink(out);
     static Glove glove;  // large: keep it off the stack
     glove.init(s, &sink);
-    glove.begin(t0);
+    if (!stamped) glove.begin(t0);
     std::vector<float> sample(6u * s.n_imu);
     int16_t raw[16][7] = {};
-    for (long k = 0; read_exact(in, sample.data(), sample.size() * 4); ++k) {
-        // t_us = t0 + k * 1e6 / rate, rounded; wraps at 2^32 as micros() does
-        const uint32_t t = t0 + static_cast<uint32_t>(std::llround(static_cast<double>(k + 1) * 1e6 / s.sense_rate_hz));
+    uint8_t stamp[5];
+    for (long k = 0; (!stamped || read_exact(in, stamp, 5)) && read_exact(in, sample.data(), sample.size() * 4);
+         ++k) {
+        // t_us = t0 + k * 1e6 / rate, rounded, or the sample's own stamp; wraps at 2^32 as micros() does
+        const uint32_t t = stamped ? Reader{stamp}.u32()
+                                   : t0 + static_cast<uint32_t>(std::llround(static_cast<double>(k + 1) * 1e6 /
+                                                                             s.sense_rate_hz));
+        if (k == 0 && stamped) glove.begin(t);
         for (const RxRecord& r : rx)
             if (r.cycle == static_cast<uint32_t>(k)) glove.receive(r.bytes.data(), r.bytes.size(), t);
         for (long b : buttons)
             if (b == k) glove.button(t);
+        if (stamped && (stamp[4] & 1u)) glove.button(t);
         uint8_t host[256];
         for (ssize_t got; fifo >= 0 && (got = ::read(fifo, host, sizeof host)) > 0;)
             glove.receive(host, static_cast<size_t>(got), t);
@@ -267,6 +310,10 @@ int run(int argc, char** argv) {
         }
         glove.sense(t, raw, ok);
         if (live) std::fflush(out);
+        if (ack_fd >= 0) {
+            const uint8_t one = 1;
+            if (::write(ack_fd, &one, 1) != 1) die("cannot write --ack-fd");
+        }
         if (trace)
             for (uint8_t i = 0; i < s.n_imu; ++i) {
                 const Quat q = glove.hand().filter(i).quaternion();
@@ -294,8 +341,9 @@ int run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc < 2) die("usage: glove_core_cli run|pose|raw|status|event|json|command ...");
+    if (argc < 2) die("usage: glove_core_cli run|pose|compact|raw|status|event|json|angles|command ...");
     if (!std::strcmp(argv[1], "run")) return run(argc - 2, argv + 2);
     if (!std::strcmp(argv[1], "command")) return decode_commands();
+    if (!std::strcmp(argv[1], "angles")) return joint_angles_of_poses();
     return encode_records(argv[1]);
 }

@@ -8,6 +8,7 @@ from recorder.protocol.frames import (
     EventFrame,
     FrameKind,
     Mode,
+    PoseCompactFrame,
     PoseFrame,
     RawFrame,
     StatusFrame,
@@ -15,6 +16,6 @@ from recorder.protocol.frames import (
 from recorder.protocol.stream import DecodeStats, StreamDecoder
 
 __all__ = [
-    "Command", "CommandCode", "DecodeStats", "EventCode", "EventFrame", "FrameKind", "Mode", "PoseFrame",
-    "RawFrame", "StatusFrame", "StreamDecoder", "decode_frame", "encode_command", "encode_frame",
+    "Command", "CommandCode", "DecodeStats", "EventCode", "EventFrame", "FrameKind", "Mode", "PoseCompactFrame",
+    "PoseFrame", "RawFrame", "StatusFrame", "StreamDecoder", "decode_frame", "encode_command", "encode_frame",
 ]

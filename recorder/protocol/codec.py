@@ -14,6 +14,9 @@ import numpy as np
 from cobs import cobs
 
 from recorder.protocol.frames import (
+    ANGLE_LSB,
+    ANGLE_MISSING,
+    N_ANGLES,
     Q14,
     VERSION,
     CalibState,
@@ -24,6 +27,7 @@ from recorder.protocol.frames import (
     Frame,
     FrameKind,
     Mode,
+    PoseCompactFrame,
     PoseFrame,
     RawFrame,
     StatusFrame,
@@ -32,6 +36,7 @@ from recorder.protocol.frames import (
 HEADER = struct.Struct("<BBHI")
 CRC = struct.Struct("<I")
 POSE_PAYLOAD = 2 + 16 * 4 * 2
+POSE_COMPACT_PAYLOAD = 4 * 2 + N_ANGLES // 2 * 3  # palm Q14, then 20 x 12 bits, two per three bytes
 RAW_HEAD = struct.Struct("<BBHH")  # n_imu, accel_fs_g, gyro_fs_dps, ok_mask
 STATUS_HEAD = struct.Struct("<BBBBHHBBBIHB")
 EVENT = struct.Struct("<BB")
@@ -52,12 +57,45 @@ class FrameError(ValueError):
 
 # ---------------------------------------------------------------- encoding
 
+def q14(values) -> np.ndarray:
+    """Quaternion components in fixed point Q14: rint(v * 16384) (ties to even), saturated; NaN gives 0."""
+    v = np.nan_to_num(np.asarray(values, np.float64) * Q14, nan=0.0)
+    return np.clip(np.rint(v), -32768, 32767).astype(_POSE_I16)
+
+
+def angle_counts(angles) -> np.ndarray:
+    """Joint angles (rad) as pose_compact's 12-bit integers of 0.1 degree: rint(a * 1800 / pi) (ties to even),
+    saturated to +-2047; NaN gives ANGLE_MISSING (-2048)."""
+    x = np.asarray(angles, np.float64) * (1800.0 / np.pi)
+    return np.where(np.isnan(x), ANGLE_MISSING, np.clip(np.rint(np.nan_to_num(x)), -2047, 2047)).astype(np.int16)
+
+
+def pack12(values) -> bytes:
+    """Pairs of 12-bit two's-complement fields a, b as the little-endian 24-bit a | b << 12."""
+    v = np.asarray(values, np.int32).reshape(-1, 2) & 0xFFF
+    u = v[:, 0] | v[:, 1] << 12
+    return np.stack((u & 0xFF, u >> 8 & 0xFF, u >> 16), axis=1).astype(np.uint8).tobytes()
+
+
+def unpack12(data) -> np.ndarray:
+    b = np.frombuffer(data, np.uint8).reshape(-1, 3).astype(np.int32)
+    u = b[:, 0] | b[:, 1] << 8 | b[:, 2] << 16
+    v = np.stack((u & 0xFFF, u >> 12), axis=1).reshape(-1)
+    return (v - ((v & 0x800) << 1)).astype(np.int16)
+
+
 def _payload(frame: Frame) -> bytes:
     if isinstance(frame, PoseFrame):
-        q = np.clip(np.rint(np.asarray(frame.quats, np.float64) * Q14), -32768, 32767).astype(_POSE_I16)
+        q = q14(frame.quats)
         if q.shape != (16, 4):
             raise ValueError(f"pose needs 16 quaternions, got shape {q.shape}")
         return struct.pack("<H", frame.measured_mask & 0xFFFF) + q.tobytes()
+    if isinstance(frame, PoseCompactFrame):
+        palm, angles = q14(frame.palm_quat), angle_counts(frame.angles)
+        if palm.shape != (4,) or angles.shape != (N_ANGLES,):
+            raise ValueError(f"pose_compact needs a palm quaternion (4,) and {N_ANGLES} angles, got shapes "
+                             f"{palm.shape} and {angles.shape}")
+        return palm.tobytes() + pack12(angles)
     if isinstance(frame, RawFrame):
         data = np.asarray(frame.data).astype(_POSE_I16)
         if data.ndim != 2 or data.shape[1] != 7 or not 1 <= data.shape[0] <= 16:
@@ -139,6 +177,15 @@ def _decode_pose(seq: int, t_us: int, p: memoryview) -> PoseFrame:
     return PoseFrame(seq, t_us, q, mask)
 
 
+def _decode_pose_compact(seq: int, t_us: int, p: memoryview) -> PoseCompactFrame:
+    if len(p) != POSE_COMPACT_PAYLOAD:
+        raise ValueError(f"{len(p)} bytes, expected {POSE_COMPACT_PAYLOAD}")
+    palm = np.frombuffer(p, _POSE_I16, 4).astype(np.float32) * np.float32(1.0 / Q14)
+    counts = unpack12(p[8:])
+    angles = np.where(counts == ANGLE_MISSING, np.nan, counts * ANGLE_LSB).astype(np.float32)
+    return PoseCompactFrame(seq, t_us, palm, angles)
+
+
 def _decode_raw(seq: int, t_us: int, p: memoryview) -> RawFrame:
     n, afs, gfs, ok = RAW_HEAD.unpack_from(p)
     if not 1 <= n <= 16 or len(p) != RAW_HEAD.size + 14 * n:
@@ -182,6 +229,7 @@ def _decode_command(seq: int, t_us: int, p: memoryview) -> Command:
 
 _DECODERS = {
     FrameKind.POSE: _decode_pose,
+    FrameKind.POSE_COMPACT: _decode_pose_compact,
     FrameKind.RAW: _decode_raw,
     FrameKind.STATUS: _decode_status,
     FrameKind.EVENT: _decode_event,

@@ -13,6 +13,9 @@ VERSION = 1
 Q14 = 16384.0  # pose quaternion fixed point: 1.0 == 16384
 MPU_TEMP_SENSITIVITY = 333.87  # LSB/degC, MPU9250 datasheet; degC = raw / 333.87 + 21
 MPU_TEMP_OFFSET_C = 21.0
+ANGLE_LSB = np.pi / 1800.0  # pose_compact joint angles: 12-bit integers of 0.1 degree
+ANGLE_MISSING = -2048       # pose_compact: the joint angle is not available (NaN)
+N_ANGLES = 20               # recorder.hand.kinematics.JOINTS
 
 
 class FrameKind(enum.IntEnum):
@@ -20,6 +23,7 @@ class FrameKind(enum.IntEnum):
     RAW = 0x02
     STATUS = 0x03
     EVENT = 0x04
+    POSE_COMPACT = 0x05
     COMMAND = 0x10  # host -> glove
 
 
@@ -27,6 +31,7 @@ class Mode(enum.IntEnum):
     RAW = 0
     POSE = 1
     JSON = 2
+    COMPACT = 3  # pose_compact frames (52 bytes: >= 200 Hz over a 115200-baud UART)
 
 
 class EventCode(enum.IntEnum):
@@ -68,6 +73,29 @@ class PoseFrame:
     measured_mask: int = MEASURED_MASK
     rx_ns: int = 0  # host receive time (time.monotonic_ns), set by the link
     kind = FrameKind.POSE
+
+
+@dataclass(slots=True)
+class PoseCompactFrame:
+    """The hand in 52 bytes (docs/protocol.md, pose_compact): ``palm_quat`` (4,) float32, the palm's
+    orientation (w, x, y, z) as in a pose frame, and ``angles`` (20,) float32, the joint angles of
+    recorder.hand.kinematics.JOINTS in radians (NaN: not available)."""
+
+    seq: int
+    t_us: int
+    palm_quat: np.ndarray
+    angles: np.ndarray
+    rx_ns: int = 0
+    kind = FrameKind.POSE_COMPACT
+
+    def relative_quats(self) -> np.ndarray:
+        """The 16 parent-relative quaternions (16, 4) float64 of the hand model at these angles, palm first: what
+        a pose frame carries, less each phalanx's twist (kinematics.forward; NaN angles give NaN segments)."""
+        from recorder.hand.kinematics import forward, relative_quats
+
+        rel = relative_quats(forward(np.asarray(self.angles, np.float64), (1.0, 0.0, 0.0, 0.0))[0])
+        rel[0] = self.palm_quat
+        return rel
 
 
 @dataclass(slots=True)
@@ -137,7 +165,7 @@ class Command:
     kind = FrameKind.COMMAND
 
 
-Frame = PoseFrame | RawFrame | StatusFrame | EventFrame | Command
+Frame = PoseFrame | PoseCompactFrame | RawFrame | StatusFrame | EventFrame | Command
 
 
 def identity_pose() -> np.ndarray:

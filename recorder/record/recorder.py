@@ -87,7 +87,7 @@ class Recorder:
         self.log_rel = None
         if cfg.log:
             self._open_log()
-        self.control = control if control is not None else Control(enabled=not self.fast or sys.stdin.isatty())
+        self.control = control if control is not None else Control()
         self.period = 1.0 / cfg.fps
         self.delay_s = 0.0 if self.fast else 1.0 / cfg.glove_rate_hz
         self._last_line = 0.0

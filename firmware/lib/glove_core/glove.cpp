@@ -102,6 +102,10 @@ void Glove::output(uint32_t t_us) {
     hand_.relative_pose(rel);
     if (mode_ == Mode::Pose) {
         send(enc_.pose(t_us, rel, hand_.measured_mask(), frame_, sizeof frame_));
+    } else if (mode_ == Mode::Compact) {
+        real angles[kJoints];
+        joint_angles(rel, angles);
+        send(enc_.pose_compact(t_us, rel[0], angles, frame_, sizeof frame_));
     } else {
         const size_t n = encode_json_line(rel, line_, sizeof line_);
         if (n && !sink_->write(reinterpret_cast<const uint8_t*>(line_), n)) ++dropped_;

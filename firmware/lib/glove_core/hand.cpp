@@ -1,5 +1,7 @@
 #include "hand.h"
 
+#include <cmath>
+
 namespace gc {
 
 int8_t segment_parent(uint8_t s) {
@@ -35,26 +37,42 @@ Quat Hand::corrected(uint8_t segment) const {
     return conj(ref_[i]) * filters_[i].quaternion();  // eq. 3.21: q_corr = q_ref^-1 q_est
 }
 
-Quat Hand::interpolated_distal(uint8_t s, const Quat corr[kSegments]) const {
-    // A finger distal phalanx (third of its chain) whose two parents carry IMUs: eq. 3.3.
-    if ((s - 1) % 3 != 2 || imu_of_segment_[s - 1] < 0 || imu_of_segment_[s - 2] < 0) return identity();
-    const Quat between = conj(corr[s - 2]) * corr[s - 1];  // intermediate relative to proximal
-    const real alpha = twist_angle(between, s_.flexion_axis);
+Quat Hand::interpolated_distal(uint8_t s, const Quat rel[kSegments]) const {
+    // A finger distal phalanx (third of its chain) whose two parents carry IMUs: eq. 3.3 from the flexion of the
+    // intermediate relative to the proximal.
+    if ((s - 1) % 3 != 2 || imu_of_segment_[s - 1] < 0 || imu_of_segment_[s - 2] < 0) return s_.reference[s];
+    const real alpha = twist_angle(rel[s - 1], s_.flexion_axis);
     const real beta = alpha > 0 ? s_.distal_ratio * alpha : 0;
-    return from_axis_angle(s_.flexion_axis, beta);
+    return s_.reference[s] * from_axis_angle(s_.flexion_axis, beta);
 }
 
 void Hand::relative_pose(Quat out[kSegments]) const {
+    // corr[s]: the rotation of segment s since the reference pose, in its reference frame (eq. 3.21). With G the
+    // segments' orientations, G[s] = G0[s] corr[s] and G0[s] = G0[parent] reference[s], so the parent-relative
+    // orientation is conj(corr[parent]) reference[s] corr[s] (the palm's parent: the reference frame).
     Quat corr[kSegments];
-    for (uint8_t s = 0; s < kSegments; ++s) corr[s] = corrected(s);
     for (uint8_t s = 0; s < kSegments; ++s) {
-        if (imu_of_segment_[s] < 0) {
-            out[s] = s == 0 ? identity() : interpolated_distal(s, corr);
-            if (s != 0) corr[s] = corr[segment_parent(s)] * out[s];  // global, for any child further out
+        const int8_t p = segment_parent(s);
+        const Quat parent = p < 0 ? identity() : corr[p];
+        if (imu_of_segment_[s] >= 0) {
+            corr[s] = corrected(s);
+            out[s] = normalized(conj(parent) * s_.reference[s] * corr[s]);
             continue;
         }
-        const int8_t p = segment_parent(s);
-        out[s] = p < 0 ? corr[s] : normalized(conj(corr[p]) * corr[s]);  // parent-relative (thesis §3.2)
+        out[s] = s == 0 ? s_.reference[0] : interpolated_distal(s, out);
+        corr[s] = conj(s_.reference[s]) * parent * out[s];  // for any child further out
+    }
+}
+
+void joint_angles(const Quat rel[kSegments], real out[kJoints]) {
+    for (uint8_t s = 1; s < kSegments; ++s) {
+        const Quat r = s == 1 ? conj(kThumbRest) * rel[s] : rel[s];
+        const int chain = (s - 1) / 3, link = (s - 1) % 3;  // chain 0 thumb .. 4 pinky; link 0 its base
+        const int first = 4 * chain;
+        // R = Rz(a) Ry(f): R[2,0] = -sin f, R[2,2] = cos f, R[0,1] = -sin a, R[1,1] = cos a
+        out[first + (link == 0 ? 0 : link + 1)] =
+            std::atan2(-2 * (r.x * r.z - r.w * r.y), 1 - 2 * (r.x * r.x + r.y * r.y));
+        if (link == 0) out[first + 1] = std::atan2(-2 * (r.x * r.y - r.w * r.z), 1 - 2 * (r.x * r.x + r.z * r.z));
     }
 }
 

@@ -4,6 +4,11 @@
 // Segments (recorder/hand/skeleton.py): 0 palm; 1-3 thumb metacarpal, proximal, distal; then index, middle,
 // ring, pinky as proximal, intermediate, distal (4-6, 7-9, 10-12, 13-15). Parent of segment s is s-1 inside a
 // chain, the palm for the chain bases (1, 4, 7, 10, 13), the glove's reference frame for the palm.
+//
+// Frames and joint angles are those of recorder/hand/kinematics.py: a segment's orientation relative to its
+// parent is REST[s] Rz(abduction) Ry(flexion), REST the identity but for the thumb metacarpal (kThumbRest). The
+// reference pose (calibration, the button, reset_pose) is taken as the model's zero pose unless
+// HandSettings::reference says otherwise: hand flat, fingers straight and together, thumb relaxed beside them.
 #pragma once
 
 #include <cstdint>
@@ -15,6 +20,10 @@ namespace gc {
 
 constexpr uint8_t kSegments = 16;
 constexpr uint8_t kMaxImus = 16;
+constexpr uint8_t kJoints = 20;  // kinematics.JOINTS: thumb CMC flex, CMC abd, MCP, IP; per finger MCP flex, abd, PIP, DIP
+// kinematics.REST[1]: the thumb metacarpal's frame on the palm at zero joint angles (yaw 40, tilt 15, roll -70 deg).
+constexpr Quat kThumbRest{real(0.7375598677397128), real(-0.5709435150228974), real(-0.09402370913031675),
+                          real(0.3481213671615886)};
 int8_t segment_parent(uint8_t segment);  // -1 for the palm
 
 struct HandSettings {
@@ -24,7 +33,14 @@ struct HandSettings {
     // Flexion axis in the reference-corrected segment frame: IMU x along the finger towards the tip, z out of the
     // back of the hand, so curling the finger is a positive rotation about +y.
     Vec3 flexion_axis{0, 1, 0};
+    // Parent-relative orientation of every segment in the reference pose: the model's zero pose by default.
+    Quat reference[kSegments] = {Quat{}, kThumbRest};
 };
+
+// The 20 joint angles (radians, kinematics.JOINTS order) of 16 parent-relative quaternions, exactly as
+// kinematics.joint_angles_from_relative: r = REST^-1 q per segment decomposed as Rz(abduction) Ry(flexion);
+// hinges keep the flexion only.
+void joint_angles(const Quat rel[kSegments], real angles[kJoints]);
 
 class Hand {
 public:
@@ -43,15 +59,16 @@ public:
     // Segments carrying an IMU: bit s set (the pose frame's measured_mask).
     uint16_t measured_mask() const { return measured_; }
 
-    // The 16 parent-relative quaternions sent in pose frames and JSON lines: eq. 3.21 corrected orientations,
-    // eq. 3.3 for finger distal phalanges without an IMU, identity for any other segment without one.
+    // The 16 parent-relative quaternions sent in pose frames and JSON lines: eq. 3.21 corrected orientations
+    // placed on the reference pose (conj(corr[parent]) reference[s] corr[s]), eq. 3.3 for finger distal phalanges
+    // without an IMU, the reference orientation for any other segment without one.
     void relative_pose(Quat out[kSegments]) const;
 
     // The eq. 3.21 corrected orientation of a segment (q_ref^-1 q_est); identity without an IMU.
     Quat corrected(uint8_t segment) const;
 
 private:
-    Quat interpolated_distal(uint8_t segment, const Quat corr[kSegments]) const;
+    Quat interpolated_distal(uint8_t segment, const Quat rel[kSegments]) const;
 
     HandSettings s_;
     uint8_t n_imu_ = 0;

@@ -26,6 +26,12 @@ struct Body {
         u16(static_cast<uint16_t>(v >> 16));
     }
     void i16(int16_t v) { u16(static_cast<uint16_t>(v)); }
+    void quat(Quat q) {  // w, x, y, z in Q14
+        i16(q14(q.w));
+        i16(q14(q.x));
+        i16(q14(q.y));
+        i16(q14(q.z));
+    }
 };
 
 void header(Body& b, FrameKind kind, uint16_t seq, uint32_t t_us) {
@@ -48,15 +54,30 @@ size_t finish(Body& b, uint8_t* out, size_t cap) {
 uint16_t rd16(const uint8_t* p) { return static_cast<uint16_t>(p[0] | p[1] << 8); }
 uint32_t rd32(const uint8_t* p) { return rd16(p) | static_cast<uint32_t>(rd16(p + 2)) << 16; }
 
+// Nearest integer, ties to even (numpy.rint); exact for the doubles these encoders see.
+double round_half_even(double x) {
+    double r = std::floor(x + 0.5);
+    if (r - x == 0.5 && std::fmod(r, 2.0) != 0.0) r -= 1.0;
+    return r;
+}
+
 }  // namespace
 
 int16_t q14(real v) {
     const double x = static_cast<double>(v) * 16384.0;  // exact
     if (!(x == x)) return 0;
-    double r = std::floor(x + 0.5);                     // exact in double; then ties to even, as numpy.rint
-    if (r - x == 0.5 && std::fmod(r, 2.0) != 0.0) r -= 1.0;
+    const double r = round_half_even(x);
     if (r > 32767.0) return 32767;
     if (r < -32768.0) return -32768;
+    return static_cast<int16_t>(r);
+}
+
+int16_t deci_degrees(real angle_rad) {
+    const double x = static_cast<double>(angle_rad) * (1800.0 / 3.14159265358979323846);  // as 1800 / numpy.pi
+    if (!(x == x)) return kAngleMissing;
+    const double r = round_half_even(x);
+    if (r > 2047.0) return 2047;
+    if (r < -2047.0) return -2047;
     return static_cast<int16_t>(r);
 }
 
@@ -65,11 +86,22 @@ size_t encode_pose(uint16_t seq, uint32_t t_us, const Quat q[kPoseQuats], uint16
     Body b;
     header(b, FrameKind::Pose, seq, t_us);
     b.u16(mask);
-    for (uint8_t i = 0; i < kPoseQuats; ++i) {
-        b.i16(q14(q[i].w));
-        b.i16(q14(q[i].x));
-        b.i16(q14(q[i].y));
-        b.i16(q14(q[i].z));
+    for (uint8_t i = 0; i < kPoseQuats; ++i) b.quat(q[i]);
+    return finish(b, out, cap);
+}
+
+size_t encode_pose_compact(uint16_t seq, uint32_t t_us, Quat palm, const real angles[kJointAngles], uint8_t* out,
+                           size_t cap) {
+    Body b;
+    header(b, FrameKind::PoseCompact, seq, t_us);
+    b.quat(palm);
+    for (uint8_t j = 0; j < kJointAngles; j += 2) {  // two 12-bit fields in three bytes: u24 = a | b << 12
+        const uint32_t lo = static_cast<uint16_t>(deci_degrees(angles[j])) & 0xFFFu;
+        const uint32_t hi = static_cast<uint16_t>(deci_degrees(angles[j + 1])) & 0xFFFu;
+        const uint32_t v = lo | hi << 12;
+        b.u8(static_cast<uint8_t>(v & 0xFFu));
+        b.u8(static_cast<uint8_t>(v >> 8 & 0xFFu));
+        b.u8(static_cast<uint8_t>(v >> 16));
     }
     return finish(b, out, cap);
 }
@@ -137,7 +169,7 @@ bool decode_command(const uint8_t* chunk, size_t len, Command* out) {
     c.t_us = rd32(body + 4);
     switch (p[0]) {
         case static_cast<uint8_t>(CommandCode::SetMode):
-            if (pn != 2 || p[1] > static_cast<uint8_t>(Mode::Json)) return false;
+            if (pn != 2 || p[1] > static_cast<uint8_t>(Mode::Compact)) return false;
             c.arg = p[1];
             break;
         case static_cast<uint8_t>(CommandCode::SetRate):

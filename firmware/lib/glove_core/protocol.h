@@ -17,11 +17,16 @@ constexpr uint8_t kProtocolVersion = 1;
 constexpr size_t kMaxBody = 1024;
 constexpr size_t kMaxWire = kMaxBody + kMaxBody / 254 + 2;  // COBS overhead + the 0x00 delimiter
 constexpr size_t kPoseWire = 144;                            // body 142 bytes
+constexpr size_t kPoseCompactWire = 52;                      // body 50 bytes
 constexpr uint8_t kPoseQuats = 16;
+constexpr uint8_t kJointAngles = 20;                         // recorder/hand/kinematics.py JOINTS
+constexpr int16_t kAngleMissing = -2048;                     // pose_compact: "no value" (NaN)
 constexpr uint8_t kMaxRawImus = 16;
 
-enum class FrameKind : uint8_t { Pose = 0x01, Raw = 0x02, Status = 0x03, Event = 0x04, Command = 0x10 };
-enum class Mode : uint8_t { Raw = 0, Pose = 1, Json = 2 };
+enum class FrameKind : uint8_t {
+    Pose = 0x01, Raw = 0x02, Status = 0x03, Event = 0x04, PoseCompact = 0x05, Command = 0x10,
+};
+enum class Mode : uint8_t { Raw = 0, Pose = 1, Json = 2, Compact = 3 };
 enum class EventCode : uint8_t {
     Boot = 1, Button = 2, PoseReset = 3, ImuFault = 4, ImuRecovered = 5,
     CalibStart = 6, CalibDone = 7, CalibRefused = 8,
@@ -53,11 +58,17 @@ struct Command {
 
 // Q14 fixed point of one quaternion component: round-half-even(v * 16384), saturated to int16 (numpy's rint).
 int16_t q14(real v);
+// A joint angle as the 12-bit field of pose_compact frames: round-half-even(rad * 1800 / pi) in 0.1 degree,
+// saturated to +-2047 (+-204.7 degrees); NaN gives kAngleMissing.
+int16_t deci_degrees(real angle_rad);
 
 // ---- frame encoders: each returns the bytes written to `out` (COBS body + 0x00), 0 if `cap` is too small
 size_t encode_pose(uint16_t seq, uint32_t t_us, const Quat q[kPoseQuats], uint16_t measured_mask, uint8_t* out,
                    size_t cap);
 // data: n_imu rows of (ax, ay, az, gx, gy, gz, temp) register values; n_imu 1..16.
+// palm: the palm's quaternion (Q14 as in pose frames); angles: the 20 joint angles in radians, JOINTS order.
+size_t encode_pose_compact(uint16_t seq, uint32_t t_us, Quat palm, const real angles[kJointAngles], uint8_t* out,
+                           size_t cap);
 size_t encode_raw(uint16_t seq, uint32_t t_us, const int16_t (*data)[7], uint8_t n_imu, uint8_t accel_fs_g,
                   uint16_t gyro_fs_dps, uint16_t ok_mask, uint8_t* out, size_t cap);
 size_t encode_status(uint16_t seq, uint32_t t_us, const StatusInfo& s, uint8_t* out, size_t cap);
@@ -90,6 +101,9 @@ class Encoder {
 public:
     size_t pose(uint32_t t_us, const Quat q[kPoseQuats], uint16_t mask, uint8_t* out, size_t cap) {
         return bump(encode_pose(seq_, t_us, q, mask, out, cap));
+    }
+    size_t pose_compact(uint32_t t_us, Quat palm, const real angles[kJointAngles], uint8_t* out, size_t cap) {
+        return bump(encode_pose_compact(seq_, t_us, palm, angles, out, cap));
     }
     size_t raw(uint32_t t_us, const int16_t (*data)[7], uint8_t n, uint8_t afs, uint16_t gfs, uint16_t ok,
                uint8_t* out, size_t cap) {

@@ -202,6 +202,23 @@ TEST(raw_mode_and_rate_commands) {
     CHECK(g_allocs == 0);
 }
 
+TEST(compact_mode_sends_52_byte_frames) {
+    still();
+    Rig r;
+    r.cycles(50);
+    const size_t mark = r.cap.n;
+    r.command(CommandCode::SetMode, 3);
+    r.cycles(10);
+    const auto fs = parse(r.cap, mark);
+    CHECK(fs.size() > 0 && fs[0].kind == static_cast<uint8_t>(FrameKind::Status) && fs[0].p[3] == 3);
+    CHECK(count(fs, FrameKind::PoseCompact) == 6 && count(fs, FrameKind::Pose) == 0);  // 50 Hz from the switch
+    const Frame* c = last_of(fs, FrameKind::PoseCompact);
+    CHECK(c && c->p.size() == 38 && c->p[0] == 0x00 && c->p[1] == 0x40);  // palm w = 1.0: the reference pose
+    for (size_t i = 8; c && i < 38; ++i) CHECK(c->p[i] == 0);              // every joint angle 0
+    CHECK(r.cap.n - mark == 56 + 6 * kPoseCompactWire);                   // the status answer, 6 frames
+    CHECK(g_allocs == 0);
+}
+
 TEST(silent_imu_is_reported_and_skipped) {
     still();
     Rig r;

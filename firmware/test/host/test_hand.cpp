@@ -40,8 +40,9 @@ TEST(measured_mask_of_table_4_1) {
     CHECK(h.measured_mask() == 0xFFFF);
 }
 
-TEST(reset_pose_makes_every_segment_identity_eq_3_21) {
-    // IMUs strapped on at arbitrary tilts: after the reset the pose is the reference pose.
+TEST(reset_pose_makes_the_reference_pose_eq_3_21) {
+    // IMUs strapped on at arbitrary tilts: after the reset the pose is the reference pose, the model's zero pose
+    // (recorder/hand/kinematics.py): identity relative to the parent, but the thumb metacarpal's REST.
     Hand h;
     h.init(HandSettings{}, 12, kJoint12);
     Rng rng;
@@ -52,7 +53,7 @@ TEST(reset_pose_makes_every_segment_identity_eq_3_21) {
     h.reset_pose();
     Quat rel[16];
     h.relative_pose(rel);
-    for (uint8_t s = 0; s < 16; ++s) CHECK(same(rel[s], identity()));
+    for (uint8_t s = 0; s < 16; ++s) CHECK(same(rel[s], s == 1 ? kThumbRest : identity()));
 }
 
 TEST(mounting_tilt_is_removed_eq_3_21) {
@@ -77,14 +78,15 @@ TEST(parent_relative_quaternions) {
     h.filter(0).set_quaternion(palm);
     h.filter(4).set_quaternion(prox);   // index proximal (segment 4)
     h.filter(5).set_quaternion(inter);  // index intermediate (segment 5)
-    for (uint8_t i : {1, 2, 3, 6, 7, 8, 9, 10, 11}) h.filter(i).set_quaternion(palm);  // rigid with the palm
+    for (uint8_t i : {2, 3, 6, 7, 8, 9, 10, 11}) h.filter(i).set_quaternion(palm);  // rigid with the palm
+    h.filter(1).set_quaternion(conj(kThumbRest) * palm * kThumbRest);  // the thumb too, seen in its own frame
     Quat rel[16];
     h.relative_pose(rel);
     CHECK(same(rel[0], palm));                              // palm: relative to the reference frame
     CHECK(same(rel[4], from_axis_angle(kY, deg(40))));      // proximal relative to the palm
     CHECK(same(rel[5], from_axis_angle(kY, deg(60))));      // intermediate relative to the proximal
     CHECK(same(rel[6], from_axis_angle(kY, deg(60) * 65.0f / 115.0f)));  // eq. 3.3
-    CHECK(same(rel[1], identity()));                        // thumb metacarpal moves with the palm
+    CHECK(same(rel[1], kThumbRest));                        // thumb metacarpal moves with the palm
     CHECK(same(rel[7], identity()));
     CHECK(same(rel[9], identity()));                        // straight middle finger: distal straight
 }
@@ -105,6 +107,20 @@ TEST(distal_interpolation_eq_3_3) {
     h.filter(7).set_quaternion(from_axis_angle({1, 0, 0}, deg(15)));
     h.relative_pose(rel);
     CHECK(same(rel[9], identity(), 1e-4f));
+}
+
+TEST(joint_angles_invert_the_model) {
+    // kinematics: relative = REST Rz(abduction) Ry(flexion); hinges flex only
+    Quat rel[16];
+    const real mcp_flex = deg(50), mcp_abd = deg(-12), pip = deg(80), cmc_flex = deg(20), cmc_abd = deg(30);
+    rel[7] = from_axis_angle(kZ, mcp_abd) * from_axis_angle(kY, mcp_flex);  // middle proximal
+    rel[8] = from_axis_angle(kY, pip);                                     // middle intermediate
+    rel[1] = kThumbRest * from_axis_angle(kZ, cmc_abd) * from_axis_angle(kY, cmc_flex);
+    rel[3] = from_axis_angle(kY, deg(-10));                                // thumb IP
+    real a[kJoints];
+    joint_angles(rel, a);
+    const real expect[kJoints] = {cmc_flex, cmc_abd, 0, deg(-10), 0, 0, 0, 0, mcp_flex, mcp_abd, pip, 0};
+    for (int j = 0; j < kJoints; ++j) CHECK_NEAR(a[j], expect[j], 1e-5);
 }
 
 TEST(sixteen_imus_measure_the_distal_phalanges) {
@@ -131,7 +147,7 @@ TEST(unmeasured_segment_follows_its_parent) {
     Quat rel[16];
     h.relative_pose(rel);
     CHECK(same(rel[0], from_axis_angle(kZ, deg(45))));
-    CHECK(same(rel[1], identity()));                          // no IMU: identity relative to the palm
+    CHECK(same(rel[1], kThumbRest));                          // no IMU: its reference orientation
     CHECK(same(rel[4], from_axis_angle(kZ, deg(-45))));       // proximal stayed while the palm turned
     CHECK(same(rel[5], identity()));
 }

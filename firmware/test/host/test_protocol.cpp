@@ -59,6 +59,28 @@ TEST(pose_frame_matches_python) {
           "024001010101010102400101010101010240010101010101024001010101010102400101010101052e67e60200");
 }
 
+TEST(pose_compact_frame_matches_python) {
+    // encode_frame(PoseCompactFrame(7, 1000, [0.5, -0.5, 0.25, -1], radians(arange(20) * 10 - 95))).hex()
+    real a[kJointAngles];
+    for (int j = 0; j < kJointAngles; ++j) a[j] = static_cast<real>((j * 10 - 95) * 3.14159265358979323846 / 180);
+    uint8_t out[kMaxWire];
+    size_t n = encode_pose_compact(7, 1000, Quat{0.5f, -0.5f, 0.25f, -1.0f}, a, out, sizeof out);
+    CHECK(n == kPoseCompactWire);
+    CHECK(hex(out, n) == "0401050703e8030101022002e0021024c04aecca126dd7daede3a26ef06aeffc326009fae015c261228ae22e52"
+                         "633ba046b32c00");
+    // NaN -> -2048 (no value), saturation at +-204.7 degrees, ties to even
+    for (auto& v : a) v = 0;
+    a[0] = NAN;
+    a[1] = 3.6f;
+    a[2] = -3.6f;
+    n = encode_pose_compact(7, 1000, identity(), a, out, sizeof out);
+    CHECK(hex(out, n) == "0401050703e8030101024001010101010105f87f01080101010101010101010101010101010101010101010101"
+                         "0105be7ddcb700");
+    CHECK(deci_degrees(static_cast<real>(0.25 * 3.14159265358979323846 / 1800)) == 0);
+    CHECK(deci_degrees(static_cast<real>(-1 * 3.14159265358979323846 / 1800)) == -1);
+    CHECK(deci_degrees(static_cast<real>(3.14159265358979323846)) == 1800);
+}
+
 TEST(raw_frame_matches_python) {
     int16_t d[12][7];
     for (int i = 0; i < 12; ++i)
@@ -162,8 +184,11 @@ TEST(invalid_commands_are_rejected) {
     // wrong kind (an event frame), bad mode value, unknown code, extra payload byte
     const size_t e = encode_event(0, 0, EventCode::Boot, 0, wire, sizeof wire);
     CHECK(!decode_command(wire, e - 1, &cmd));
-    Command mode3{CommandCode::SetMode, 3, 0, 0};
+    Command mode3{CommandCode::SetMode, 3, 0, 0};  // compact: valid
     size_t m = encode_command(0, 0, mode3, wire, sizeof wire);
+    CHECK(decode_command(wire, m - 1, &cmd) && cmd.arg == 3);
+    Command mode4{CommandCode::SetMode, 4, 0, 0};
+    m = encode_command(0, 0, mode4, wire, sizeof wire);
     CHECK(!decode_command(wire, m - 1, &cmd));
     Command unknown{static_cast<CommandCode>(9), 0, 0, 0};
     m = encode_command(0, 0, unknown, wire, sizeof wire);

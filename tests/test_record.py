@@ -1,0 +1,177 @@
+"""`gloverec record` end to end: emulated glove -> pty -> loop -> env -> a dataset lerobot loads."""
+
+import json
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+import envs
+from conftest import gloverec
+from recorder.record.store import read_sidecar
+
+
+def record(*args, timeout=240):
+    r = gloverec("record", "--json", *args, timeout=timeout)
+    assert r.returncode == 0, r.stderr
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+@pytest.fixture(scope="module")
+def pose_dataset(tmp_path_factory):
+    root = tmp_path_factory.mktemp("rec") / "ds"
+    summary = record("--episodes", "3", "--root", str(root), "--repo-id", "test/pose", "--seed", "5")
+    return root, summary
+
+
+def test_recorded_dataset_loads_with_declared_shapes_fps_and_timestamps(pose_dataset):
+    root, summary = pose_dataset
+    ds = LeRobotDataset("test/pose", root=root)
+    env = envs.make("pose", "glovehand").unwrapped
+    assert ds.num_episodes == 3 == summary["total_episodes"] and ds.fps == 30
+    assert ds.meta.features["observation.state"]["shape"] == (len(env.state_names),)
+    assert ds.meta.features["action"]["names"] == list(env.action_names)
+    for e in range(3):
+        lo, hi = ds.meta.episodes[e]["dataset_from_index"], ds.meta.episodes[e]["dataset_to_index"]
+        ts = np.array([float(ds[i]["timestamp"]) for i in range(lo, hi)])
+        assert np.allclose(ts, np.arange(hi - lo) / 30, atol=1e-6)
+        host = np.array([float(ds[i]["time.host_s"]) for i in range(lo, hi)])
+        dev = np.array([float(ds[i]["time.device_s"]) for i in range(lo, hi)])
+        assert np.all(np.diff(host) > 0) and np.allclose(np.diff(dev), 1 / 30, atol=1e-3)
+    item = ds[0]
+    assert item["observation.glove"].shape == (24,) and item["task"].startswith("make the ")
+
+
+def test_action_moves_state_to_the_next_state(pose_dataset):
+    """Replaying the stored actions from the same seed reproduces every next state: the stored action is
+    exactly what the environment applied, and action[t] leads from state[t] to state[t+1]."""
+    root, _ = pose_dataset
+    ds = LeRobotDataset("test/pose", root=root)
+    side = read_sidecar(root)
+    env = envs.make("pose", "glovehand")
+    for e in range(ds.num_episodes):
+        lo, hi = ds.meta.episodes[e]["dataset_from_index"], ds.meta.episodes[e]["dataset_to_index"]
+        obs, _ = env.reset(seed=side[e]["seed"])
+        for i in range(lo, hi):
+            assert np.allclose(obs["observation.state"], ds[i]["observation.state"].numpy(), atol=1e-5)
+            obs, *_ = env.step(ds[i]["action"].numpy())
+
+
+def test_sidecar_counts_and_log_ranges(pose_dataset):
+    root, summary = pose_dataset
+    side = read_sidecar(root)
+    assert [s["seed"] for s in side] == [5, 6, 7]
+    for s in side:
+        assert s["glove_dropped"] == 0 and s["glove_errors"] == 0 and s["frames"] > 10
+        assert s["log"]["file"] == summary["log"]
+    assert (root / summary["log"]).stat().st_size > 1000
+    from recorder.log.playback import read_log
+    marks = read_log(root / summary["log"]).marks
+    assert [m["name"] for m in marks].count("episode_end") == 3
+
+
+def test_sigkill_during_recording_keeps_saved_episodes_and_resume_continues(tmp_path):
+    root = tmp_path / "ds"
+    args = [sys.executable, "-m", "recorder.cli", "record", "--episodes", "50", "--root", str(root),
+            "--repo-id", "test/kill"]
+    saved = 0
+    for delay in (6.0, 7.3):
+        proc = subprocess.Popen(args + (["--resume"] if saved or root.is_symlink() else []),
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        time.sleep(delay)
+        proc.send_signal(signal.SIGKILL)
+        _, err = proc.communicate()
+        saved = err.count("saved:") + saved
+        ds = LeRobotDataset("test/kill", root=root)
+        assert ds.num_episodes >= saved >= 1
+        ds[len(ds) - 1]
+    summary = record("--episodes", "2", "--root", str(root), "--repo-id", "test/kill", "--resume")
+    assert summary["total_episodes"] == LeRobotDataset("test/kill", root=root).num_episodes >= saved + 2
+    assert [s["episode_index"] for s in read_sidecar(root)] == list(range(summary["total_episodes"]))
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["--robot", "r2d2"], "unknown robot"),
+    (["--task", "juggle"], "unknown task"),
+    (["--repo-id", "../evil"], "bad repo id"),
+    (["--repo-id", "noslash"], "bad repo id"),
+    (["--fps", "0"], "fps"),
+    (["--glove", "/dev/does-not-exist"], "no such port"),
+])
+def test_bad_input_is_one_line(tmp_path, args, needle):
+    r = gloverec("record", "--episodes", "1", "--root", str(tmp_path / "ds"), *args)
+    assert r.returncode == 1, r.stderr
+    assert r.stderr.strip().count("\n") == 0 and needle in r.stderr and "Traceback" not in r.stderr
+
+
+def test_existing_root_needs_resume(pose_dataset):
+    root, _ = pose_dataset
+    r = gloverec("record", "--episodes", "1", "--root", str(root), "--repo-id", "test/pose")
+    assert r.returncode == 1 and "--resume" in r.stderr
+
+
+class Session:
+    """`gloverec record` from a serial glove in a child process, its stderr collected as it comes."""
+
+    def __init__(self, port, root, *extra):
+        import threading
+        self.proc = subprocess.Popen([sys.executable, "-m", "recorder.cli", "record", "--glove",
+                                      f"serial:{port}", "--root", str(root), "--repo-id", "test/live", "--json",
+                                      *extra], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                     stderr=subprocess.PIPE, text=True)
+        self.lines = []
+        self._t = threading.Thread(target=lambda: self.lines.extend(iter(self.proc.stderr.readline, "")),
+                                   daemon=True)
+        self._t.start()
+
+    def wait_for(self, text, timeout=60):
+        from conftest import wait_for
+        assert wait_for(lambda: any(text in ln for ln in self.lines), timeout), self.lines
+
+    def key(self, line):
+        self.proc.stdin.write(line + "\n")
+        self.proc.stdin.flush()
+
+    def finish(self):
+        out, _ = self.proc.communicate(timeout=90)
+        self._t.join(5)
+        assert self.proc.returncode == 0, "".join(self.lines)
+        return json.loads(out.strip().splitlines()[-1]), "".join(self.lines)
+
+
+def test_keyboard_lines_end_rerecord_and_stop(emulator, tmp_path):
+    emu = emulator("--rate", "200")
+    rec = Session(emu.port, tmp_path / "ds", "--episodes", "5", "--episode-time-s", "4", "--reset-time-s", "0.2")
+    rec.wait_for("recording 5 episode")
+    time.sleep(1.2)           # episode 0 is under way
+    rec.key("rerecord")
+    rec.wait_for("re-recording it")
+    time.sleep(1.2)
+    rec.key("next")           # ends the (re-recorded) episode 0 early
+    rec.wait_for("episode 0 saved")
+    time.sleep(1.2)
+    rec.key("stop")           # saves episode 1 so far and ends the session
+    summary, _ = rec.finish()
+    assert summary["episodes_saved"] == 2 and summary["rerecorded"] == 1
+    side = read_sidecar(tmp_path / "ds")
+    assert all(5 < s["frames"] < 100 for s in side), [s["frames"] for s in side]
+    assert side[0]["realtime"] and side[0]["jitter_ms_p99"] is not None
+
+
+def test_unplug_discards_the_episode_and_recording_carries_on(emulator, tmp_path):
+    emu = emulator("--rate", "200")
+    rec = Session(emu.port, tmp_path / "ds", "--episodes", "2", "--episode-time-s", "2.5", "--reset-time-s", "0.2")
+    rec.wait_for("recording 2 episode")
+    time.sleep(1.2)  # in episode 0
+    emu.unplug()
+    time.sleep(1.0)
+    emu.replug()
+    summary, err = rec.finish()
+    assert summary["lost"] == 1 and summary["episodes_saved"] == 2, err
+    assert "the glove went away" in err
+    ds = LeRobotDataset("test/live", root=tmp_path / "ds")
+    assert ds.num_episodes == 2

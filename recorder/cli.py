@@ -47,11 +47,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     e = sub.add_parser("emulate", help="serve a synthetic glove on a pseudo-terminal")
     e.add_argument("--rate", type=_positive(float), default=200.0, help="frames per second (default 200)")
-    e.add_argument("--mode", choices=("raw", "pose", "json"), default="pose")
+    e.add_argument("--mode", choices=("raw", "pose", "json", "compact"), default="pose")
     e.add_argument("--motion", choices=("gestures", "random"), default="gestures")
     e.add_argument("--duration", type=_positive(float), help="seconds to stream (default: until killed)")
     e.add_argument("--seed", type=int, default=0)
     e.add_argument("--link", help="also expose the port as this stable symlink (as udev does for real gloves)")
+    e.add_argument("--firmware", action="store_true", help="run the compiled glove core (firmware/) on the "
+                   "synthetic IMUs: the bytes are exactly what the real glove's code sends (builds it with cmake)")
     e.add_argument("--truth", metavar="FILE.npz", help="on exit, save the ground truth of every frame sent "
                    "(seq, t_us, joint angles, parent-relative quaternions, fingertips, palm pose)")
     e.set_defaults(func=cmd_emulate)
@@ -111,7 +113,8 @@ def _interrupt(*_):
 def cmd_emulate(args) -> int:
     from recorder.emulator.emulator import Emulator
 
-    emu = Emulator(args.rate, args.mode, args.motion, args.seed, link=args.link, keep_truth=bool(args.truth))
+    emu = Emulator(args.rate, args.mode, args.motion, args.seed, link=args.link, keep_truth=bool(args.truth),
+                   firmware=args.firmware)
     try:
         port = emu.plug()
     except OSError as exc:

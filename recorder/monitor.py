@@ -8,7 +8,7 @@ import time
 import numpy as np
 
 from recorder.link.base import GloveSource
-from recorder.protocol.frames import PoseFrame, RawFrame
+from recorder.protocol.frames import PoseCompactFrame, PoseFrame, RawFrame
 
 
 class LinkMonitor:
@@ -25,7 +25,7 @@ class LinkMonitor:
 
     def consume(self, frame) -> None:
         self.frames += 1
-        if isinstance(frame, (PoseFrame, RawFrame)):
+        if isinstance(frame, (PoseFrame, PoseCompactFrame, RawFrame)):
             self.samples += 1
             if self.first_rx is None:
                 self.first_rx = frame.rx_ns

@@ -29,6 +29,7 @@ from recorder.protocol.frames import (
     CLOCK_HOST_MONOTONIC,
     EventCode,
     EventFrame,
+    PoseCompactFrame,
     PoseFrame,
     RawFrame,
     StatusFrame,
@@ -66,6 +67,10 @@ def glove_bytes(n: int = 300, seed: int = 1) -> bytes:
             f = EventFrame(seq, i * 5000, EventCode.IMU_FAULT, 3)
         elif i % 3 == 0:
             f = RawFrame(seq, i * 5000, rng.integers(-32768, 32767, (12, 7), dtype=np.int16), ok_mask=0xFF7)
+        elif i % 7 == 0:
+            q = rng.normal(size=4)
+            f = PoseCompactFrame(seq, i * 5000, (q / np.linalg.norm(q)).astype(np.float32),
+                                 rng.uniform(-1.5, 1.5, 20).astype(np.float32))
         else:
             q = rng.normal(size=(16, 4))
             f = PoseFrame(seq, i * 5000, (q / np.linalg.norm(q, axis=1, keepdims=True)).astype(np.float32))
@@ -119,7 +124,7 @@ def log(tmp_path):
 
 def test_round_trip_bytes_and_frames(log):
     path, chunks, rxs, src, logger = log
-    assert len({type(f) for f in src.frames}) == 4 and src.decoder.stats.crc_errors == 1
+    assert len({type(f) for f in src.frames}) == 5 and src.decoder.stats.crc_errors == 1
     with open(path, "rb") as f:
         msgs = [m for _, _, m in make_reader(f).iter_messages(topics=[BYTES_TOPIC])]
     assert [m.data for m in msgs] == chunks                                   # every raw byte, as read
@@ -150,6 +155,11 @@ def test_decoded_channels_match_frames(log):
         q = [[s["w"], s["x"], s["y"], s["z"]] for s in m["segments"]]
         np.testing.assert_allclose(q, f.quats, atol=1e-6)
         assert m["segments"][6] == m["segments"][6] | {"name": "index_distal", "measured": False}
+    compact = [f for f in src.frames if isinstance(f, PoseCompactFrame)]
+    assert len(msgs["/glove/pose_compact"]) == len(compact) > 0
+    for m, f in zip(msgs["/glove/pose_compact"], compact):
+        np.testing.assert_allclose([m["palm"][k] for k in "wxyz"], f.palm_quat, atol=1e-6)
+        np.testing.assert_allclose(list(m["joints_deg"].values()), np.degrees(f.angles), atol=1e-3)
     for m, f in zip(msgs["/glove/raw"], raws):
         np.testing.assert_allclose([[i["accel_g"][k] for k in "xyz"] for i in m["imus"]], f.accel_g, atol=1e-6)
         np.testing.assert_allclose([[i["gyro_dps"][k] for k in "xyz"] for i in m["imus"]], f.gyro_dps, atol=1e-5)
@@ -200,7 +210,7 @@ def test_json_messages_validate_against_their_schemas(log):
             assert json.loads(schema.data) == SCHEMAS[ch.topic]
             validate(json.loads(m.data), json.loads(schema.data))
             seen.add(ch.topic)
-    assert seen == {"/glove/pose", "/glove/raw", "/glove/status", "/glove/event"}
+    assert seen == {"/glove/pose", "/glove/pose_compact", "/glove/raw", "/glove/status", "/glove/event"}
     with pytest.raises(AssertionError):  # the validator itself can fail
         validate({k: 0 for k in SCHEMAS["/glove/pose"]["required"] if k != "segments"}, SCHEMAS["/glove/pose"])
     with pytest.raises(AssertionError):

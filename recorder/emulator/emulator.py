@@ -17,7 +17,9 @@ import tty
 
 import numpy as np
 
+from recorder import GloverecError
 from recorder.emulator.glove import SyntheticGlove
+from recorder.hand.kinematics import joint_angles_from_relative
 from recorder.hand.skeleton import JOINT_MAP, MUX_MAP, N_IMUS
 from recorder.protocol import StreamDecoder
 from recorder.protocol.codec import encode_frame
@@ -29,6 +31,7 @@ from recorder.protocol.frames import (
     EventCode,
     EventFrame,
     Mode,
+    PoseCompactFrame,
     PoseFrame,
     RawFrame,
     StatusFrame,
@@ -43,10 +46,16 @@ MAX_PENDING = 16 * 1024    # bytes held back while the reader is slow; beyond th
 
 class Emulator:
     def __init__(self, rate_hz: float = 200.0, mode: str = "pose", motion="gestures", seed: int = 0,
-                 link: str | None = None, keep_truth: bool = False):
+                 link: str | None = None, keep_truth: bool = False, firmware: bool = False):
+        """``motion``: a Motion kind or a Motion-like object. ``firmware``: run the compiled glove core
+        (firmware/lib/glove_core) on the synthetic IMU readings instead of encoding frames here: the bytes on
+        the pty are then exactly what the real glove's code sends (firmware in the loop)."""
         self.sense_hz = float(rate_hz)   # synthesis ("sensing") rate, fixed
         self.output_hz = float(rate_hz)  # frame rate; SET_RATE lowers it (at most the sensing rate)
         self.mode = Mode[mode.upper()]
+        self.core = None
+        if firmware:
+            motion = self._start_core(motion, seed, mode)
         self.glove = SyntheticGlove(motion=motion, rate_hz=self.sense_hz, seed=seed)
         self.link = link
         self.seq = 0
@@ -64,6 +73,18 @@ class Emulator:
         self.horizon_s = 0.0      # session time up to which motion has been synthesised (fixed from then on)
         self._buttons: list[float] = []
         self._t_us = time.monotonic_ns() // 1000
+
+    def _start_core(self, motion, seed: int, mode: str):
+        from recorder.emulator.firmware import FirmwareCore, FirmwareError, RestThenMove, build_core
+        from recorder.emulator.motion import Motion
+
+        try:
+            self.core = FirmwareCore(build_core(), int(self.sense_hz), int(self.output_hz), mode)
+        except FirmwareError as exc:
+            raise GloverecError(f"firmware in the loop: {exc}") from None
+        if isinstance(motion, str):
+            motion = Motion(motion, seed=seed, rate_hz=self.sense_hz)
+        return RestThenMove(motion, rest_s=2.0)  # the core calibrates its gyros on a resting hand at boot
 
     # ------------------------------------------------------------ the pseudo-terminal
     def plug(self) -> str:
@@ -83,7 +104,8 @@ class Emulator:
                 os.replace(tmp, self.link)
             self._pending = b""
             self._commands.reset()
-        self._write(self._status() + self._event(EventCode.BOOT))
+        if self.core is None:  # the core sends its own boot frames
+            self._write(self._status() + self._event(EventCode.BOOT))
         return self.link or self.port
 
     def unplug(self) -> None:
@@ -135,7 +157,9 @@ class Emulator:
             if block is None or i == len(block.t):
                 block, i = self.glove.next_block(max(1, int(BLOCK_S * self.sense_hz))), 0
                 self.horizon_s = float(block.t[-1]) + period
-            if self.plugged and t >= next_out - 1e-9:
+            if self.core is not None:
+                self._firmware_cycle(block, i)
+            elif self.plugged and t >= next_out - 1e-9:
                 next_out += 1.0 / self.output_hz
                 self._poll_commands()
                 data = self._due_buttons(float(block.t[i])) + self._encode(block, i)
@@ -145,6 +169,19 @@ class Emulator:
                 self._write(data)
             i += 1
             k += 1
+
+    def _firmware_cycle(self, block, i: int) -> None:
+        """One sensing cycle of the compiled core: readings in, its frames out, host commands through."""
+        if self._due_buttons(float(block.t[i])):
+            self.core.press_button()
+        self.core.feed(block.raw[i], block.accel_fs_g, block.gyro_fs_dps, t_us=self._now_us())
+        if self.plugged:
+            host = self._read_host()
+            if host:
+                self.core.send(host)
+            self._write(self.core.read())
+        else:
+            self.core.read()
 
     def schedule_button(self, at_s: float) -> None:
         """Press the reset button when the motion reaches session time ``at_s`` (the demonstrator's cue)."""
@@ -168,6 +205,10 @@ class Emulator:
             data, seq = encode_line(block.pose[i]), -1
         elif self.mode == Mode.POSE:
             data, seq = encode_frame(PoseFrame(self._next_seq(), t_us, block.pose[i])), self.seq
+        elif self.mode == Mode.COMPACT:
+            angles = joint_angles_from_relative(block.pose[i].astype(np.float64))
+            data = encode_frame(PoseCompactFrame(self._next_seq(), t_us, block.pose[i][0], angles))
+            seq = self.seq
         else:
             data, seq = encode_frame(RawFrame(self._next_seq(), t_us, block.raw[i], block.accel_fs_g,
                                               block.gyro_fs_dps, (1 << N_IMUS) - 1)), self.seq
@@ -244,12 +285,14 @@ class Emulator:
         self.sent_frames += 1
 
     # ------------------------------------------------------------ host commands
-    def _poll_commands(self) -> None:
+    def _read_host(self) -> bytes:
         try:
-            data = os.read(self._master, 4096)
+            return os.read(self._master, 4096)
         except (BlockingIOError, OSError):
-            return
-        for cmd in self._commands.feed(data):
+            return b""
+
+    def _poll_commands(self) -> None:
+        for cmd in self._commands.feed(self._read_host()):
             if isinstance(cmd, Command):
                 self._apply(cmd)
 
@@ -266,9 +309,14 @@ class Emulator:
 
     def press_button(self) -> None:
         """The reset button: an event, as the glove sends when pin 5 goes low."""
-        self._write(self._event(EventCode.BUTTON))
+        if self.core is not None:
+            self.core.press_button()
+        else:
+            self._write(self._event(EventCode.BUTTON))
 
     def close(self) -> None:
         self.stop()
         if self.plugged:
             self.unplug()
+        if self.core is not None:
+            self.core.close()

@@ -20,11 +20,13 @@ import time
 import numpy as np
 
 from recorder import GloverecError, __version__
+from recorder.hand.kinematics import JOINTS
 from recorder.hand.skeleton import SEGMENTS
 from recorder.protocol.frames import (
     CLOCK_HOST_MONOTONIC,
     VERSION as PROTOCOL_VERSION,
     EventFrame,
+    PoseCompactFrame,
     PoseFrame,
     RawFrame,
     StatusFrame,
@@ -35,6 +37,7 @@ LOG_VERSION = 1
 BYTES_TOPIC = "/glove/bytes"
 BYTES_ENCODING = "gloverec.bytes"  # schemaless: each message is a chunk of transport bytes, exactly as read
 POSE_TOPIC, RAW_TOPIC, STATUS_TOPIC, EVENT_TOPIC = "/glove/pose", "/glove/raw", "/glove/status", "/glove/event"
+COMPACT_TOPIC = "/glove/pose_compact"
 MARKS_TOPIC = "/gloverec/marks"
 SESSION_METADATA = "gloverec.session"
 GLOVE_METADATA = "gloverec.glove"
@@ -75,6 +78,11 @@ SCHEMAS = {
         "glove_id": _INT, "imu_ok_mask": _INT, "n_imu": _INT,
         "mux_map": {"type": "array", "items": _INT}, "joint_map": {"type": "array", "items": _INT},
     }, "Glove status (docs/protocol.md)."),
+    COMPACT_TOPIC: _schema("gloverec.PoseCompact", {
+        "palm": {"type": "object", "properties": {"w": _NUM, "x": _NUM, "y": _NUM, "z": _NUM},
+                 "required": ["w", "x", "y", "z"]},
+        "joints_deg": {"type": "object", "additionalProperties": {"type": ["number", "null"]}},
+    }, "Palm orientation (unit quaternion) and the 20 joint angles in degrees (null: not available)."),
     EVENT_TOPIC: _schema("gloverec.Event", {"code": _INT, "name": _STR, "arg": _INT},
                          "Glove event (docs/protocol.md)."),
     MARKS_TOPIC: {
@@ -123,6 +131,11 @@ def frame_json(frame) -> tuple[str, dict] | None:
         segs = [{"name": SEGMENTS[i], "measured": bool(frame.measured_mask >> i & 1),
                  "w": w, "x": x, "y": y, "z": z} for i, (w, x, y, z) in enumerate(q)]
         return POSE_TOPIC, head | {"measured_mask": frame.measured_mask, "segments": segs}
+    if isinstance(frame, PoseCompactFrame):
+        deg = np.degrees(np.asarray(frame.angles, np.float64))
+        joints = {j: (None if np.isnan(a) else round(float(a), 3)) for j, a in zip(JOINTS, deg)}
+        palm = dict(zip("wxyz", np.round(np.asarray(frame.palm_quat, np.float64), 6).tolist()))
+        return COMPACT_TOPIC, head | {"palm": palm, "joints_deg": joints}
     if isinstance(frame, RawFrame):
         acc = np.round(frame.accel_g, 6).tolist()
         gyr = np.round(frame.gyro_dps, 6).tolist()

@@ -13,7 +13,7 @@ from typing import NamedTuple
 
 from recorder import GloverecError
 from recorder.link.sources import make_source
-from recorder.protocol import EventCode, EventFrame, PoseFrame, RawFrame
+from recorder.protocol import EventCode, EventFrame, PoseCompactFrame, PoseFrame, RawFrame
 from recorder.record.pose_track import PoseTrack
 
 TRANSITION_S = 0.8   # the emulated hand's move back to a demonstration's start pose
@@ -95,6 +95,9 @@ class GloveInput:
         if isinstance(f, PoseFrame):
             self.frames += 1
             self.track.push(self.time_of(f), f.quats, Sample(f.t_us, f.rx_ns, None))
+        elif isinstance(f, PoseCompactFrame):
+            self.frames += 1
+            self.track.push(self.time_of(f), f.relative_quats(), Sample(f.t_us, f.rx_ns, None))
         elif isinstance(f, RawFrame):
             if self.fusion is None:
                 raise GloverecError("the glove sends raw IMU frames but no host fusion is configured")

@@ -5,10 +5,18 @@ from __future__ import annotations
 import json
 import platform
 import statistics
+import sys
 import time
 from pathlib import Path
 
-RESULTS = Path(__file__).resolve().parent / "results"
+BENCH = Path(__file__).resolve().parent
+RESULTS = BENCH / "results"
+REPO = BENCH.parent
+
+# `python bench/X.py` puts bench/ first on sys.path, where bench/envs.py would shadow the `envs` package:
+# benchmarks import this module first, and it puts the repository first instead.
+sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != BENCH]
+sys.path.insert(0, str(REPO))
 
 
 def write_results(name: str, results: dict) -> Path:

@@ -84,9 +84,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     from envs import view
     from recorder.record import cli as record_cli
+    from recorder.record import inspect as inspect_cli
 
     view.add_parser(sub)
     record_cli.add_parsers(sub)
+    inspect_cli.add_parsers(sub)
     return p
 
 

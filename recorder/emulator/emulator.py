@@ -41,6 +41,7 @@ from recorder.protocol.legacy_json import encode_line
 FIRMWARE = (0, 1, 0)       # the emulator reports itself as firmware 0.1.0
 GLOVE_ID = 0xE0E0_0001
 BLOCK_S = 0.05             # synthesise motion 50 ms at a time (short: less jitter for an in-process reader)
+FAST_BLOCK_S = 0.5         # bulk generation: larger blocks amortise the synthesis
 MAX_PENDING = 16 * 1024    # bytes held back while the reader is slow; beyond this, frames are dropped
 
 
@@ -141,6 +142,7 @@ class Emulator:
         next_status = next_out = 0.0
         k = 0
         block, i = None, 0
+        batch: list[bytes] = []
         while not self._stop.is_set():
             t = k * period  # session time of this sample
             if duration is not None and t >= duration:
@@ -155,7 +157,8 @@ class Emulator:
             else:
                 self._t_us = t0_us + round(t * 1e6)
             if block is None or i == len(block.t):
-                block, i = self.glove.next_block(max(1, int(BLOCK_S * self.sense_hz))), 0
+                block_s = BLOCK_S if realtime else FAST_BLOCK_S
+                block, i = self.glove.next_block(max(1, int(block_s * self.sense_hz))), 0
                 self.horizon_s = float(block.t[-1]) + period
             if self.core is not None:
                 self._firmware_cycle(block, i)
@@ -166,7 +169,13 @@ class Emulator:
                 if t >= next_status:
                     data += self._status()
                     next_status = t + 1.0
-                self._write(data)
+                if realtime:
+                    self._write(data)
+                else:  # bulk generation: one write per block, not per frame (fewer syscalls and wake-ups)
+                    batch.append(data)
+                    if i == len(block.t) - 1:
+                        self._write(b"".join(batch))
+                        batch.clear()
             i += 1
             k += 1
 

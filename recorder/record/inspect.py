@@ -1,0 +1,147 @@
+"""`gloverec inspect`: what a recording holds, how well its glove and loop kept time, and a plot of the
+commanded action against the resulting joint state, per joint, for one episode."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from recorder import GloverecError
+from recorder.record.store import read_sidecar
+
+COLUMNS = ("frames", "success", "glove_late", "glove_dropped", "loop_overruns", "jitter_ms_p99",
+           "latency_ms_p99", "retarget_error_mm_mean")
+
+
+def load_meta(repo_id: str, root: Path):
+    from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
+
+    if not (root / "meta" / "info.json").is_file():
+        raise GloverecError(f"{root} is not a LeRobot dataset (no meta/info.json)")
+    try:
+        return LeRobotDatasetMetadata(repo_id, root=root)
+    except Exception as exc:  # a damaged dataset: say what, in one line
+        raise GloverecError(f"cannot read {root}: {type(exc).__name__}: {str(exc).splitlines()[0]}") from None
+
+
+def episodes_table(repo_id: str, root: Path) -> list[dict]:
+    meta = load_meta(repo_id, root)
+    side = {s["episode_index"]: s for s in read_sidecar(root)}
+    rows = []
+    for e in range(meta.total_episodes):
+        ep = meta.episodes[e]
+        s = side.get(e, {})
+        rows.append({"episode": e, "frames": int(ep["length"]), "seconds": round(ep["length"] / meta.fps, 2),
+                     "task": ep["tasks"][0] if len(ep["tasks"]) else "",
+                     **{k: s.get(k) for k in COLUMNS if k != "frames"}})
+    return rows
+
+
+def _action_state_pairs(action_names, state_names, robot: str | None) -> list[tuple[int, int]]:
+    """(action column, state column) of each actuator and the joint it drives."""
+    joints = None
+    if robot:
+        try:
+            from envs.robots import load_robot
+
+            m = load_robot(robot).model
+            joints = [m.joint(m.actuator_trnid[i, 0]).name for i in range(m.nu)]
+        except (ValueError, KeyError, IndexError):
+            joints = None
+    pairs = []
+    for a, name in enumerate(action_names):
+        joint = joints[a] if joints is not None and a < len(joints) else name
+        if f"{joint}.pos" in state_names:
+            pairs.append((a, state_names.index(f"{joint}.pos")))
+    return pairs
+
+
+def plot_episode(repo_id: str, root: Path, episode: int, out: Path) -> Path:
+    """A PNG grid: per actuated joint, the action (target) and the joint position it produced."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    meta = load_meta(repo_id, root)
+    if not 0 <= episode < meta.total_episodes:
+        raise GloverecError(f"no episode {episode}: the dataset has episodes 0-{meta.total_episodes - 1}")
+    ds = LeRobotDataset(repo_id, root=root, episodes=[episode])
+    data = ds.hf_dataset.with_format("numpy")
+    action, state = np.stack(data["action"]), np.stack(data["observation.state"])
+    t = np.asarray(data["timestamp"])
+    a_names = meta.features["action"]["names"]
+    s_names = meta.features["observation.state"]["names"]
+    pairs = _action_state_pairs(a_names, s_names, meta.robot_type)
+    if not pairs:
+        raise GloverecError("cannot pair actions with joint states in this dataset")
+    cols = 5
+    rows = -(-len(pairs) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 2.2 * rows), sharex=True, squeeze=False)
+    for ax, (a, s) in zip(axes.flat, pairs):
+        ax.plot(t, np.degrees(action[:, a]), label="action (target)", lw=1.2)
+        ax.plot(t, np.degrees(state[:, s]), label="state", lw=1.2)
+        ax.set_title(a_names[a], fontsize=8)
+        ax.tick_params(labelsize=7)
+    for ax in list(axes.flat)[len(pairs):]:
+        ax.axis("off")
+    axes.flat[0].legend(fontsize=7)
+    fig.supxlabel("time (s)")
+    fig.supylabel("degrees")
+    fig.suptitle(f"{repo_id} episode {episode}: action vs joint state")
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=90)
+    plt.close(fig)
+    return out
+
+
+def add_parsers(sub) -> None:
+    p = sub.add_parser("inspect", help="episodes, lengths, sync quality, and an action-vs-state plot")
+    p.add_argument("--repo-id", required=True)
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--root", help="a recording folder (default datasets/recordings/USER/NAME)")
+    where.add_argument("--hub", help="a local hub folder: the dataset is HUB/USER/NAME")
+    p.add_argument("--episode", type=int, default=0, help="episode to plot (default 0)")
+    p.add_argument("--plot", help="PNG file for the plot (default: <root>/../<NAME>_episode<K>.png)")
+    p.add_argument("--no-plot", action="store_true")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=run)
+
+
+def dataset_root(repo_id: str, root: str | None, hub: str | None) -> Path:
+    from recorder.record.config import REPO_ID
+
+    if not REPO_ID.match(repo_id) or ".." in repo_id:
+        raise GloverecError(f"bad repo id {repo_id!r}: expected USER/NAME (letters, digits, . _ -)")
+    if hub:
+        return Path(hub) / repo_id
+    return Path(root) if root else Path("datasets/recordings") / repo_id
+
+
+def run(args) -> int:
+    root = dataset_root(args.repo_id, args.root, args.hub)
+    if not root.exists():
+        raise GloverecError(f"no dataset at {root}")
+    rows = episodes_table(args.repo_id, root)
+    plot = None
+    if not args.no_plot and rows:
+        plot = Path(args.plot) if args.plot else root.parent / f"{root.name}_episode{args.episode}.png"
+        plot_episode(args.repo_id, root, args.episode, plot)
+    if args.json:
+        print(json.dumps({"root": str(root), "episodes": rows, "plot": str(plot) if plot else None}))
+        return 0
+    head = ("ep", "frames", "s", "ok", "late", "drop", "overrun", "jitter99", "lat99", "retarget", "task")
+    print(("{:>3} {:>6} {:>5} {:>3} {:>5} {:>5} {:>7} {:>8} {:>6} {:>8}  {}").format(*head))
+    for r in rows:
+        def f(v, nd=1):
+            return "-" if v is None else (f"{v:.{nd}f}" if isinstance(v, float) else str(v))
+        print(f"{r['episode']:>3} {r['frames']:>6} {r['seconds']:>5} {('y' if r['success'] else 'n') if r['success'] is not None else '-':>3} "
+              f"{f(r['glove_late']):>5} {f(r['glove_dropped']):>5} {f(r['loop_overruns']):>7} "
+              f"{f(r['jitter_ms_p99'], 2):>8} {f(r['latency_ms_p99']):>6} {f(r['retarget_error_mm_mean']):>8}  {r['task']}")
+    if plot:
+        print(f"plot of episode {args.episode}: {plot}")
+    return 0

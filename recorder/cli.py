@@ -88,6 +88,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     view.add_parser(sub)
     record_cli.add_parsers(sub)
+    record_cli.add_rerecord_parser(sub)
     inspect_cli.add_parsers(sub)
     return p
 

@@ -15,10 +15,14 @@ from conftest import gloverec
 from recorder.record.store import read_sidecar
 
 
-def record(*args, timeout=240):
-    r = gloverec("record", "--json", *args, timeout=timeout)
+def record_cmd(command, *args, timeout=240):
+    r = gloverec(command, "--json", *args, timeout=timeout)
     assert r.returncode == 0, r.stderr
     return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+def record(*args, timeout=240):
+    return record_cmd("record", *args, timeout=timeout)
 
 
 @pytest.fixture(scope="module")
@@ -175,3 +179,41 @@ def test_unplug_discards_the_episode_and_recording_carries_on(emulator, tmp_path
     assert "the glove went away" in err
     ds = LeRobotDataset("test/live", root=tmp_path / "ds")
     assert ds.num_episodes == 2
+
+
+def test_rerecord_rebuilds_the_dataset_from_its_log(pose_dataset, tmp_path):
+    root, summary = pose_dataset
+    log = root / summary["log"]
+    same = record_cmd("rerecord", "--log", str(log), "--repo-id", "test/again", "--root", str(tmp_path / "same"))
+    assert same["total_episodes"] == 3
+    a, b = LeRobotDataset("test/pose", root=root), LeRobotDataset("test/again", root=tmp_path / "same")
+    assert len(a) == len(b)
+    for i in range(0, len(a), 7):  # the same glove bytes, the same seeds: the same demonstrations
+        assert np.allclose(a[i]["observation.glove"], b[i]["observation.glove"], atol=1e-4)
+        assert np.allclose(a[i]["action"], b[i]["action"], atol=1e-4)
+    other = record_cmd("rerecord", "--log", str(log), "--repo-id", "test/shadow", "--root",
+                       str(tmp_path / "shadow"), "--robot", "shadow")
+    ds = LeRobotDataset("test/shadow", root=tmp_path / "shadow")
+    assert other["total_episodes"] == 3 and ds.meta.robot_type == "shadow" and len(ds) == len(a)
+    r = gloverec("rerecord", "--log", str(tmp_path / "nope.mcap"), "--repo-id", "test/x")
+    assert r.returncode == 1 and r.stderr.count("\n") == 1
+
+
+def test_inspect_reports_episodes_and_plots(pose_dataset, tmp_path):
+    root, _ = pose_dataset
+    png = tmp_path / "plot.png"
+    r = gloverec("inspect", "--repo-id", "test/pose", "--root", str(root), "--episode", "1", "--plot", str(png),
+                 "--json")
+    assert r.returncode == 0, r.stderr
+    rep = json.loads(r.stdout)
+    assert [e["episode"] for e in rep["episodes"]] == [0, 1, 2]
+    assert all(e["frames"] > 10 and e["glove_dropped"] == 0 for e in rep["episodes"])
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
+    r = gloverec("inspect", "--repo-id", "test/pose", "--root", str(root), "--episode", "9", "--plot", str(png))
+    assert r.returncode == 1 and "no episode 9" in r.stderr
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    (broken / "meta").mkdir()
+    (broken / "meta" / "info.json").write_text("{not json")
+    r = gloverec("inspect", "--repo-id", "test/pose", "--root", str(broken))
+    assert r.returncode == 1 and r.stderr.count("\n") == 1 and "Traceback" not in r.stderr

@@ -51,3 +51,42 @@ def run_record(args: argparse.Namespace) -> int:
               f"{summary['total_episodes']} episodes, {summary['total_frames']} frames "
               f"(LeRobotDataset({summary['repo_id']!r}, root={summary['root']!r}))")
     return 0
+
+
+def add_rerecord_parser(sub) -> None:
+    r = sub.add_parser("rerecord", help="rebuild a dataset from a session's MCAP log with other settings")
+    r.add_argument("--log", required=True, help="a session log (<root>/logs/session-*.mcap)")
+    r.add_argument("--repo-id", required=True, help="USER/NAME of the new dataset")
+    r.add_argument("--root", help="new dataset folder (default datasets/recordings/USER/NAME)")
+    r.add_argument("--robot", help="default: the log's robot")
+    r.add_argument("--task", help="default: the log's task")
+    r.add_argument("--fps", type=int, help="default: the log's")
+    r.add_argument("--retarget", choices=("joint", "ik"))
+    r.add_argument("--cameras", type=lambda s: [c for c in s.split(",") if c])
+    r.add_argument("--json", action="store_true")
+    r.set_defaults(func=run_rerecord)
+
+
+def run_rerecord(args: argparse.Namespace) -> int:
+    from recorder import GloverecError
+    from recorder.log.playback import read_log
+    from recorder.record.config import RecordConfig
+    from recorder.record.recorder import Recorder
+
+    info = read_log(args.log)  # a missing, foreign or damaged file: one-line GloverecError
+    session = info.metadata.get("gloverec.session", {})
+    plan = [(m["fields"]["seed"], m["fields"]["device_start_s"], m["fields"]["frames"])
+            for m in info.marks if m["name"] == "episode_end" and m["fields"].get("device_start_s") is not None]
+    if not plan:
+        raise GloverecError(f"{args.log} holds no re-recordable episodes (no episode marks with device times)")
+    if any(p[1] < 0 for p in plan):
+        raise GloverecError(f"{args.log} comes from a glove without a device clock: its episodes cannot be re-timed")
+    cfg = RecordConfig.load(glove=f"mcap:{args.log}", repo_id=args.repo_id, root=args.root,
+                            robot=args.robot or session.get("robot"), task=args.task or session.get("task"),
+                            fps=args.fps or int(session.get("fps", 30)), retarget=args.retarget,
+                            cameras=args.cameras, realtime=False, episodes=len(plan), log=False)
+    summary = Recorder(cfg, plan=plan).run()
+    summary["source_log"] = args.log
+    print(json.dumps(summary) if args.json else
+          f"re-recorded {summary['episodes_saved']} of {len(plan)} episode(s) from {args.log} into {summary['root']}")
+    return 0

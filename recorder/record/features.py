@@ -8,7 +8,7 @@ from recorder.hand.kinematics import JOINTS
 
 GLOVE_NAMES = [*(f"{j}.rad" for j in JOINTS), "palm.qw", "palm.qx", "palm.qy", "palm.qz"]
 QUALITY = {
-    "quality.latency_ms": "glove sample -> applied action (real time; in fast mode: frame receipt -> action)",
+    "quality.latency_ms": "glove sample -> applied action, real time only (-1: not measured, fast mode)",
     "quality.glove_age_ms": "how far the newest glove sample lagged the frame time (0: interpolated)",
     "quality.retarget_error_mm": "mean robot vs scaled human fingertip distance",
     "quality.fusion": "host fusion's disturbance estimate (0: glove-side fusion or none)",

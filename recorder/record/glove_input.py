@@ -83,13 +83,27 @@ class GloveInput:
             return self.source.clock.unwrap(frame.t_us, frame.rx_ns)
         return self.source.host_time_s(frame)
 
-    def poll(self, timeout: float = 0.0) -> int:
-        """Take every frame that has arrived (waiting up to ``timeout`` for the first); returns how many."""
-        first = self.source.read(timeout) if timeout > 0 else None
-        frames = ([first] if first is not None else []) + self.source.drain()
-        for f in frames:
+    def poll(self, timeout: float = 0.0, until: float | None = None) -> int:
+        """Take frames that have arrived (waiting up to ``timeout`` for the first); returns how many.
+
+        Real time: everything queued. Fast: one frame at a time and only until the track reaches ``until``
+        (default: one more frame), so the track never skips past the frame times the loop still needs."""
+        n = 0
+        if not self.fast:
+            first = self.source.read(timeout) if timeout > 0 else None
+            for f in ([first] if first is not None else []) + self.source.drain():
+                self._take(f)
+                n += 1
+            return n
+        while True:
+            f = self.source.read(timeout if n == 0 else 0.0)
+            if f is None:
+                return n
             self._take(f)
-        return len(frames)
+            n += 1
+            newest = self.track.newest_s
+            if until is None or (newest is not None and newest >= until):
+                return n
 
     def _take(self, f) -> None:
         if isinstance(f, PoseFrame):
@@ -121,11 +135,8 @@ class GloveInput:
         """Fast mode: take frames until the track has a sample at or after ``t``; False if none comes."""
         end = time.monotonic() + timeout_s
         while self.track.newest_s is None or self.track.newest_s < t:
-            if self.source.finished and self.poll() == 0:
+            if self.poll(timeout=0.05, until=t) == 0 and (self.source.finished or time.monotonic() > end):
                 return False
-            if time.monotonic() > end:
-                return False
-            self.poll(timeout=0.05)
         return True
 
     @property

@@ -56,11 +56,14 @@ class EpisodeStats:
 
 
 class Recorder:
-    def __init__(self, cfg: RecordConfig, control: Control | None = None, out=sys.stderr):
+    def __init__(self, cfg: RecordConfig, control: Control | None = None, out=sys.stderr, plan=None):
+        """``plan``: (seed, device_start_s, frames) per episode, to re-record a log's episodes exactly
+        (`gloverec rerecord`); episodes then start at those device times instead of at buttons or keys."""
         import envs
         from recorder.retarget import Retargeter
 
         self.cfg = cfg
+        self.plan = list(plan) if plan is not None else None
         self.fast = cfg.is_fast
         self.out = out
         try:
@@ -122,7 +125,7 @@ class Recorder:
             self.glove.open()
             self._say(f"recording {cfg.episodes} episode(s) of {cfg.task} on {cfg.robot} from {self.glove.spec} "
                       f"({'faster than real time' if self.fast else 'real time'}) into {cfg.root_path}")
-            while len(saved) < cfg.episodes:
+            while len(saved) < (cfg.episodes if self.plan is None else len(self.plan) + len(saved)):
                 index = self.store.num_episodes
                 outcome, result = self._one_episode(index)
                 if outcome == "saved":
@@ -159,18 +162,23 @@ class Recorder:
 
     # ------------------------------------------------------------ one episode
     def _one_episode(self, index: int) -> tuple[str, dict | None]:
-        seed = self.cfg.seed + index
+        planned = self.plan.pop(0) if self.plan else None
+        seed = self.cfg.seed + index if planned is None else planned[0]
         obs, info = self.env.reset(seed=seed)
         self.task_text = self.cfg.task_text or task_text(self.cfg.task, info)
         self.retarget.reset()
         if self.demonstrator is not None:
             self.glove.demonstrate(self.demonstrator.plan(self.u, seed=seed))
-        start = self._wait_for_start()
+        if planned is not None:
+            start = planned[1] if self.glove.wait_past(planned[1]) else None
+            self.glove.buttons.clear()
+        else:
+            start = self._wait_for_start()
         if start is None:
             return ("ended" if self.glove.finished else "stop"), None
         if self.logger is not None:
             self.logger.mark("episode_start", episode=index, seed=seed, glove_time_s=start)
-        return self._record(index, seed, obs, start)
+        return self._record(index, seed, obs, start, None if planned is None else planned[2])
 
     def _wait_for_start(self) -> float | None:
         """The reset period: ends at the glove's button, → on the keyboard, or after reset_time_s."""
@@ -178,7 +186,8 @@ class Recorder:
         if self.fast:
             if not g.wait_past(float("-inf"), FIRST_SAMPLE_TIMEOUT_S):
                 raise GloverecError(f"no glove frames from {g.spec} in {FIRST_SAMPLE_TIMEOUT_S:.0f} s")
-        g.buttons.clear() if self.demonstrator is None else None
+        if self.demonstrator is None:
+            g.buttons.clear()  # a press from before the reset period does not skip it
         begin = g.now()
         limit = float("inf") if self.demonstrator is not None else self.cfg.reset_time_s
         wall_end = time.monotonic() + (30.0 if self.demonstrator is not None else self.cfg.reset_time_s + 30.0)
@@ -199,11 +208,13 @@ class Recorder:
             if self.fast and g.track.newest_s is not None:
                 g.wait_past(g.now() + self.period)  # let glove time advance
 
-    def _record(self, index: int, seed: int, obs: dict, start: float) -> tuple[str, dict | None]:
+    def _record(self, index: int, seed: int, obs: dict, start: float, frames: int | None = None
+                ) -> tuple[str, dict | None]:
         cfg, g, u = self.cfg, self.glove, self.u
         src = g.source
         stats = EpisodeStats(decode0=dict(src.decoder.stats.as_dict()), drops0=src.stats().queue_drops)
-        n_max = int(round(u.config.episode_s * cfg.fps))
+        n_max = frames or int(round(u.config.episode_s * cfg.fps))
+        device_start = None
         host0 = time.monotonic() - (g.now() - start) if not self.fast else time.monotonic()
         success, outcome, stop_after = False, "saved", False
         for k in range(n_max):
@@ -229,11 +240,13 @@ class Recorder:
             if pose is None:
                 return self._lost(index)
             stats.held += pose.held
+            if device_start is None:
+                device_start = self._device_time(pose, tick - self.delay_s)
             angles = joint_angles_from_relative(pose.quats)
             action, rinfo = self.retarget(angles, pose.quats[0])
             sample = pose.extra  # (t_us, rx_ns, fusion quality) of the newest sample used
             t_act = time.monotonic()
-            latency = t_act - (sample.rx_ns * 1e-9 if self.fast else pose.newest_s)
+            latency = -1e-3 if self.fast else t_act - pose.newest_s  # -1 ms: not measured (no wall clock)
             nxt, _, terminated, truncated, info = self.env.step(action)
             frame = {
                 "observation.state": obs["observation.state"],
@@ -252,7 +265,8 @@ class Recorder:
                 frame[f"observation.images.{cam}"] = obs[f"observation.images.{cam}"]
             self.store.add_frame(frame)
             stats.frames += 1
-            stats.latency_s.append(latency)
+            if not self.fast:
+                stats.latency_s.append(latency)
             stats.retarget_mm.append(rinfo["tip_error_mean"] * 1e3)
             obs = nxt
             success = bool(info["is_success"])
@@ -264,8 +278,9 @@ class Recorder:
             if what in (NEXT, STOP):
                 stop_after = what == STOP
                 break
-            if g.take_button() is not None and self.demonstrator is None:
-                break  # the glove's button ends the episode (the emulated demonstrator uses it to start one)
+            if g.take_button() is not None and self.demonstrator is None and self.plan is None:
+                break  # the glove's button ends the episode (the demonstrator uses it to start one; a re-recorded
+                # log's episodes end where they ended)
             if terminated or truncated:
                 break
         if stats.frames == 0:
@@ -274,10 +289,11 @@ class Recorder:
         decode = src.decoder.stats.as_dict()
         result = {"task": self.task_text, "seed": seed, "success": success, "robot": cfg.robot,
                   "env_task": cfg.task, "fps": cfg.fps, "glove": g.spec, "realtime": not self.fast,
-                  "retarget": cfg.retarget, "start_glove_time_s": start,
+                  "retarget": cfg.retarget, "start_glove_time_s": start, "start_device_time_s": device_start,
                   **stats.summary(decode, src.stats().queue_drops)}
         if self.logger is not None:
-            self.logger.mark("episode_end", episode=index, frames=stats.frames, success=success)
+            self.logger.mark("episode_end", episode=index, seed=seed, frames=stats.frames, success=success,
+                             device_start_s=device_start)
             self.logger.flush()
             result["log"] = {"file": self.log_rel, **_log_range(self.logger, start, g, stats.frames, self.period)}
         self.store.save_episode(result)

@@ -55,6 +55,13 @@ class PoseTrack:
         w = (t - ts[i - 1]) / (ts[i] - ts[i - 1])
         return PoseAt(quat.slerp(self._q[i - 1], self._q[i], w), ts[i], False, 0.0, self._extra[i])
 
+    def interval_s(self, default: float) -> float:
+        """The glove's sample interval: median spacing of the last samples (``default`` before there are any)."""
+        if len(self._t) < 8:
+            return default
+        recent = np.fromiter(self._t, float, len(self._t))[-33:]
+        return float(np.median(np.diff(recent)))
+
     def drop_before(self, t: float) -> None:
         """Forget samples older than the one just before ``t`` (keeps what interpolation at >= t needs)."""
         while len(self._t) > 2 and self._t[1] <= t:

@@ -92,7 +92,7 @@ class Recorder:
             self._open_log()
         self.control = control if control is not None else Control()
         self.period = 1.0 / cfg.fps
-        self.delay_s = 0.0 if self.fast else 1.0 / cfg.glove_rate_hz
+        self.delay_s = 0.0  # real time: set per episode from the glove's measured sample interval
         self._last_line = 0.0
 
     def _fusion(self):
@@ -214,6 +214,8 @@ class Recorder:
         src = g.source
         stats = EpisodeStats(decode0=dict(src.decoder.stats.as_dict()), drops0=src.stats().queue_drops)
         n_max = frames or int(round(u.config.episode_s * cfg.fps))
+        if not self.fast:  # read 1.5 samples behind, so the sample after the frame time has nearly always come
+            self.delay_s = float(np.clip(1.5 * g.track.interval_s(1.0 / cfg.glove_rate_hz), 1e-3, 0.05))
         device_start = None
         host0 = time.monotonic() - (g.now() - start) if not self.fast else time.monotonic()
         success, outcome, stop_after = False, "saved", False

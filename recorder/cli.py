@@ -83,6 +83,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.set_defaults(func=cmd_bridge)
 
     from envs import view
+    from recorder.hub import cli as hub_cli
     from recorder.record import cli as record_cli
     from recorder.record import inspect as inspect_cli
 
@@ -90,6 +91,7 @@ def build_parser() -> argparse.ArgumentParser:
     record_cli.add_parsers(sub)
     record_cli.add_rerecord_parser(sub)
     inspect_cli.add_parsers(sub)
+    hub_cli.add_parsers(sub)
     return p
 
 

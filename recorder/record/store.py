@@ -23,8 +23,6 @@ import os
 import shutil
 from pathlib import Path
 
-from lerobot.datasets.utils import DEFAULT_DATA_FILE_SIZE_IN_MB, DEFAULT_VIDEO_FILE_SIZE_IN_MB
-
 from recorder import GloverecError
 
 STATE_SUFFIX = ".gloverec"
@@ -63,6 +61,8 @@ def _clone(src: Path, dst: Path, published_info: bool) -> None:
         if rel.startswith(IMMUTABLE):
             os.link(p, out)
         elif published_info and rel == "meta/info.json":
+            from lerobot.datasets.utils import DEFAULT_DATA_FILE_SIZE_IN_MB, DEFAULT_VIDEO_FILE_SIZE_IN_MB
+
             info = json.loads(p.read_text())   # the working copy's tiny file limits are not for readers
             info["data_files_size_in_mb"] = DEFAULT_DATA_FILE_SIZE_IN_MB
             info["video_files_size_in_mb"] = DEFAULT_VIDEO_FILE_SIZE_IN_MB

@@ -24,6 +24,7 @@ test: $(STAMP)
 	$(PY) -m pytest -q
 
 bench: $(STAMP)
+	$(PY) -m pip install -q -e '.[test,bench]'
 	@mkdir -p bench/results
 	@for b in bench/*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
 

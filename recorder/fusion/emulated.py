@@ -1,0 +1,80 @@
+"""The calibration procedure (recorder/hand/calibration.py) as emulated motion, for the benchmark and tests:
+``ProcedureMotion`` plays the user's steps, then blends into a recorder.emulator Motion ("gestures", "random").
+
+Timeline (seconds): 0-3 still, flat (step 1); 3-6 two flexions of every finger and the thumb to 60 degrees
+(step 2); 6-14 tilts of the hand: forward, back, left, right by 45 degrees, each held 0.8 s (step 3); 14-16 flat
+and still again (the reference pose, where fusion starts); 16-17 blend into the motion, which starts at 17.
+Plug it into a SyntheticGlove: ``glove.motion = ProcedureMotion(kind, seed, rate)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from recorder import quat
+from recorder.emulator.glove import SyntheticGlove
+from recorder.emulator.motion import Motion, MotionBlock, _min_jerk
+from recorder.hand.kinematics import JOINTS, N_JOINTS, interpolate_dip
+
+HOLD, FLEX, MOVE, TILT_HOLD, REST, BLEND = 3.0, 3.0, 0.8, 0.8, 2.0, 1.0
+TILTS_DEG = ((0, 0, 0), (0, 45, 0), (0, -45, 0), (45, 0, 0), (-45, 0, 0), (0, 0, 0))  # palm rotation vectors
+TILT = (len(TILTS_DEG) - 1) * (MOVE + TILT_HOLD)
+PHASES = {"still": (0.0, HOLD), "flex": (HOLD, HOLD + FLEX), "tilt": (HOLD + FLEX, HOLD + FLEX + TILT),
+          "rest": (HOLD + FLEX + TILT, HOLD + FLEX + TILT + REST)}
+START = HOLD + FLEX + TILT + REST + BLEND  # the motion's t = 0
+FLEXED = tuple(JOINTS.index(j) for j in JOINTS
+               if j.endswith(("mcp_flex", "_pip")) or j in ("thumb_cmc_flex", "thumb_mcp", "thumb_ip"))
+
+
+class ProcedureMotion:
+    def __init__(self, kind: str = "gestures", seed: int = 0, rate_hz: float = 200.0, flex_deg: float = 60.0):
+        self.motion = Motion(kind, seed=seed, rate_hz=rate_hz)
+        self.rate_hz = float(rate_hz)
+        self.flex = np.radians(flex_deg)
+        self._i = 0
+
+    def at(self, t) -> MotionBlock:
+        t = np.asarray(t, float)
+        n = len(t)
+        angles = np.zeros((n, N_JOINTS))
+        s = np.clip((t - HOLD) / FLEX, 0.0, 1.0)
+        amp = np.where((t >= HOLD) & (t < HOLD + FLEX), 0.5 * (1.0 - np.cos(4.0 * np.pi * s)), 0.0)
+        angles[:, list(FLEXED)] = amp[:, None] * self.flex
+        angles = interpolate_dip(angles)
+        tt = t - (HOLD + FLEX)
+        k = np.clip((tt // (MOVE + TILT_HOLD)).astype(int), 0, len(TILTS_DEG) - 2)
+        u = np.clip((tt - k * (MOVE + TILT_HOLD)) / MOVE, 0.0, 1.0)
+        keys = np.radians(np.array(TILTS_DEG, float))
+        tilting = (tt >= 0.0) & (tt < TILT)
+        palm = quat.from_rotvec(np.where(tilting[:, None], keys[k] + (keys[k + 1] - keys[k]) * _min_jerk(u)[:, None],
+                                         0.0))
+        pos = np.zeros((n, 3))
+        m0 = self.motion.at(np.array([0.0]))
+        b = _min_jerk(np.clip((t - (START - BLEND)) / BLEND, 0.0, 1.0))[:, None]
+        blend = (t >= START - BLEND) & (t < START)
+        angles = np.where(blend[:, None], (1 - b) * angles + b * m0.angles, angles)
+        palm = np.where(blend[:, None], quat.slerp(palm, m0.palm_quat, b[:, 0]), palm)
+        pos = np.where(blend[:, None], b * m0.palm_pos, pos)
+        after = t >= START
+        if after.any():
+            m = self.motion.at(t[after] - START)
+            angles[after], palm[after], pos[after] = m.angles, m.palm_quat, m.palm_pos
+        return MotionBlock(t, angles, palm, pos)
+
+    def next_block(self, n: int) -> MotionBlock:
+        t = (self._i + np.arange(n)) / self.rate_hz
+        self._i += n
+        return self.at(t)
+
+
+def procedure_glove(kind: str = "gestures", rate_hz: float = 200.0, seed: int = 0, **imu_options) -> SyntheticGlove:
+    """A SyntheticGlove whose wearer first runs the calibration procedure."""
+    glove = SyntheticGlove(kind, rate_hz, seed, **imu_options)
+    glove.motion = ProcedureMotion(kind, seed, rate_hz)
+    return glove
+
+
+def phase(name: str, rate_hz: float, margin_s: float = 0.2) -> slice:
+    """Sample indices of a procedure step, ``margin_s`` inside its ends."""
+    a, b = PHASES[name]
+    return slice(int(round((a + margin_s) * rate_hz)), int(round((b - margin_s) * rate_hz)))

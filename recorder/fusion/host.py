@@ -1,0 +1,386 @@
+"""Host-side fusion: raw glove frames -> 16 parent-relative segment quaternions + 20 joint angles + quality.
+
+Per raw frame, in this order (docs/fusion.md):
+1. registers -> accelerometer (g) and gyro (rad/s); flags (recorder/fusion/quality.py); flagged IMUs are not
+   fused this frame;
+2. calibration (recorder/hand/calibration.py): accelerometer offset and static gyro bias removed (eq. 3.20),
+   then the tracked bias (recorder/fusion/bias.py);
+3. dt per IMU: device time since that IMU's last fused sample (u32 microseconds, wraps), at most max_dt_s;
+4. one filter step for all IMUs (the configured filter, recorder/fusion/registry.py);
+5. bias tracking;
+6. hand model: segment = C (x) q_imu (x) mount^-1 (C: heading reference, thesis eq. 3.21; mount: Kortier
+   eq. 34); parent-relative orientations; joint angles with the joints' dimensionality and limits and
+   eq. 3.3 for the distal phalanges (recorder/hand/joints.py);
+7. joint-constraint feedback (Kortier et al.: the constraint as a measurement): the heading each measured
+   segment needs to satisfy its joint's dimensionality is fed back into C and the bias tracker.
+Pose frames (fused on the glove) pass through: their quaternions are kept and the joint angles computed.
+An EventFrame BUTTON (the glove's reset button) resets the reference pose, as ``reset()`` does (a key).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from recorder import quat
+from recorder.fusion import kernels, pipeline
+from recorder.fusion.bias import BiasTracker
+from recorder.fusion.config import FusionConfig
+from recorder.fusion.gravity import gain_factor
+from recorder.fusion.quality import NONFINITE, InputCheck
+from recorder.fusion.registry import make_filter
+from recorder.hand import calibration as cal
+from recorder.hand import joints
+from recorder.hand.kinematics import N_JOINTS, relative_quats
+from recorder.hand.skeleton import JOINT_MAP, N_IMUS, N_SEGMENTS, PARENTS
+from recorder.protocol.frames import (
+    MPU_TEMP_OFFSET_C,
+    MPU_TEMP_SENSITIVITY,
+    EventCode,
+    EventFrame,
+    PoseFrame,
+    RawFrame,
+)
+
+UP = np.array([0.0, 0.0, 1.0])
+_IMU_SEG = np.array(JOINT_MAP)
+_NO_IMU = [s for s in range(N_SEGMENTS) if s not in JOINT_MAP]
+
+
+@dataclass
+class Fused:
+    """Fusion output for T frames (``process_block``, ``pose_block``): quats (T, 16, 4) parent-relative (row 0: the palm in
+    the world), angles (T, 20) rad, valid (T, 20) bool, flags (T, 12) uint8 (recorder.fusion.quality), and
+    quality arrays (T, 12): accel_error (| |a| - 1 | g), trust (accelerometer trust 0..1), bias_change
+    (|online bias estimate| rad/s), constraint (rad the joint dimensionality removed), heading (rad of heading
+    correction applied since the reference pose: the drift the constraints found)."""
+
+    seq: np.ndarray
+    t_us: np.ndarray
+    quats: np.ndarray
+    angles: np.ndarray
+    valid: np.ndarray
+    flags: np.ndarray
+    accel_error: np.ndarray
+    trust: np.ndarray
+    bias_change: np.ndarray
+    constraint: np.ndarray
+    heading: np.ndarray
+    source: str = "raw"
+
+    def frame(self, k: int = -1) -> "FusedFrame":
+        """Frame k alone (what ``process`` returns for one glove frame)."""
+        fused = self.flags[k] == 0
+        aerr = np.where(fused, self.accel_error[k], 0.0)
+        detail = {"accel_error": self.accel_error[k], "trust": self.trust[k], "bias_change": self.bias_change[k],
+                  "constraint": self.constraint[k], "heading": self.heading[k],
+                  "flagged_imus": int(np.count_nonzero(self.flags[k]))}
+        return FusedFrame(int(self.seq[k]), int(self.t_us[k]), self.quats[k], self.angles[k], self.valid[k],
+                          self.flags[k], float(np.max(aerr)) if aerr.size else 0.0, detail, self.source)
+
+
+@dataclass
+class FusedFrame:
+    """One fused glove frame: quats (16, 4) parent-relative (row 0 the palm in the world), angles (20,) rad,
+    valid (20,), flags (12,); ``quality`` the frame's disturbance estimate for a recording (the largest
+    accelerometer magnitude error of the fused IMUs, g: 0 for a hand at rest; 0 for pose frames), ``detail``
+    the per-IMU quality arrays of Fused."""
+
+    seq: int
+    t_us: int
+    quats: np.ndarray
+    angles: np.ndarray
+    valid: np.ndarray
+    flags: np.ndarray
+    quality: float
+    detail: dict
+    source: str = "raw"
+
+
+def _joint_imus() -> list[tuple[int, ...]]:
+    """The IMUs each joint angle depends on (its segment's and its parent's; DIPs through the PIP)."""
+    seg_imu = {s: i for i, s in enumerate(JOINT_MAP)}
+    out = []
+    for j in range(N_JOINTS):
+        seg = next(s for s, f, a in joints.SWING + joints.HINGE if j in (f, a))
+        if seg not in seg_imu:  # interpolated distal: driven by the intermediate and the proximal
+            seg = PARENTS[seg]
+        out.append(tuple(seg_imu[s] for s in (seg, PARENTS[seg]) if s in seg_imu))
+    return out
+
+
+JOINT_IMUS = _joint_imus()
+_TABLES = pipeline.hand_tables()
+_PARENT_SEG = np.array([max(PARENTS[s], 0) for s in JOINT_MAP])
+_PARENT_IMU = np.array([JOINT_MAP.index(PARENTS[s]) if PARENTS[s] in JOINT_MAP else -1 for s in JOINT_MAP])
+_PARENT_IMU_SAFE = np.maximum(_PARENT_IMU, 0)
+_IMU_KIND = _TABLES["kind"][list(JOINT_MAP)]
+_JOINT_IMU_MASK = np.zeros((N_JOINTS, N_IMUS), bool)
+for _j, _imus in enumerate(JOINT_IMUS):
+    _JOINT_IMU_MASK[_j, list(_imus)] = True
+
+
+class HostFusion:
+    def __init__(self, config: FusionConfig | None = None, calibration: cal.GloveCalibration | None = None):
+        self.config = config or FusionConfig()
+        self.calibration = calibration or cal.GloveCalibration()
+        c = self.config
+        self.filter = make_filter(c.filter, N_IMUS, **c.filter_settings)
+        own_bias = c.filter in ("mahony", "relative")
+        self.tracker = BiasTracker(N_IMUS, c.bias, use_gravity=not own_bias)
+        self.check = InputCheck(N_IMUS)
+        self.C = np.tile(quat.IDENTITY, (N_IMUS, 1))
+        self.heading = np.zeros(N_IMUS)
+        self.started = np.zeros(N_IMUS, bool)
+        self.last_t = np.zeros(N_IMUS, np.int64)
+        self.last_quats = joints.constrained_relative(np.zeros(N_JOINTS))  # pose frames: the last good one
+
+    # ------------------------------------------------------------------ calibration and reference pose
+    def calibrate(self, still, flex=None, tilt=None, glove_id: int | None = None) -> cal.GloveCalibration:
+        """The calibration procedure (recorder/hand/calibration.py) from its three recordings, each a list of
+        RawFrames, a (raw registers (T, 12, 7), t_us (T,)) pair or a (gyro rad/s, accel g, dt s) tuple. Raises
+        CalibrationRefused when the hand moved during ``still``. Returns (and uses) the new calibration."""
+        g, a, _, temp = _arrays(still)
+        bias = cal.gyro_bias(g, a)
+        offset = np.zeros((N_IMUS, 3))
+        quality = {"accel_offset_ok": [False] * N_IMUS, "flexion_axis_ok": [False] * N_IMUS}
+        if tilt is not None:
+            tg, ta, tdt, _ = _arrays(tilt, 1.0 / self.config.rate_hz)
+            offset, ok = cal.accel_offsets(tg - bias, ta, tdt)
+            quality["accel_offset_ok"] = ok.tolist()
+        axes = None
+        if flex is not None:
+            fg, _, _, _ = _arrays(flex)
+            axes = cal.flexion_axes(fg - bias)
+            turned = np.sqrt(np.mean(np.sum((fg - bias) ** 2, axis=2), axis=0)) > 0.2
+            axes[0] = np.nan  # the palm does not flex
+            axes[~turned] = np.nan
+            quality["flexion_axis_ok"] = (turned & (np.arange(N_IMUS) > 0)).tolist()
+        mounts = cal.align(np.mean(a, axis=0) - offset, axes, self.calibration.reference_angles)
+        self.calibration = cal.GloveCalibration(
+            glove_id=self.calibration.glove_id if glove_id is None else glove_id, created=cal.created_now(),
+            gyro_bias=bias, gyro_bias_temp_c=temp, accel_offset=offset, mounts=mounts,
+            reference_angles=self.calibration.reference_angles.copy(), quality=quality)
+        return self.calibration
+
+    def start(self, still) -> None:
+        """Start (or restart) fusing with the hand resting in the reference pose over ``still`` (frames or a
+        (gyro, accel, dt) tuple): gyro bias refreshed if the hand was still, every filter initialised from
+        gravity (eq. 3.5-3.6), bias tracking cleared, and the reference pose taken (eq. 3.21)."""
+        g, a, _, _ = _arrays(still)
+        try:
+            self.calibration.gyro_bias = cal.gyro_bias(g, a)
+        except cal.CalibrationRefused:
+            pass
+        accel = np.mean(a, axis=0) - self.calibration.accel_offset
+        self.filter.reset(accel)
+        self.filter.bias[:] = 0.0
+        self.tracker.b[:] = 0.0
+        self.started[:] = True
+        last = _last_t(still)
+        if last is not None:
+            self.last_t[:] = last
+        self.reset()
+
+    def reset(self) -> None:
+        """The reference pose, now (the reset button or a key): per-IMU heading corrections C such that the
+        hand model is in its reference pose with the palm's heading 0 (eq. 3.21, headings only)."""
+        self.C = cal.reference(self.filter.q, self.calibration.mounts, self.calibration.reference_angles)
+        self.heading[:] = 0.0
+
+    # ------------------------------------------------------------------ frames
+    def process(self, frame) -> FusedFrame | None:
+        """One frame: a FusedFrame for raw and pose frames, None for others (BUTTON events reset)."""
+        if isinstance(frame, RawFrame):
+            return self.process_block(frame.data[None], [frame.t_us], [frame.ok_mask], frame.accel_fs_g,
+                                      frame.gyro_fs_dps, [frame.seq]).frame(0)
+        if isinstance(frame, PoseFrame):
+            return self.pose_block(frame.quats[None], [frame.t_us], [frame.seq]).frame(0)
+        if isinstance(frame, EventFrame) and frame.code == EventCode.BUTTON:
+            self.reset()
+        return None
+
+    def pose_block(self, quats, t_us, seq=None) -> Fused:
+        """Pose frames fused on the glove: quaternions kept, joint angles computed, non-finite ones flagged."""
+        q = np.array(quats, dtype=float)
+        T = len(q)
+        finite = np.all(np.isfinite(q), axis=(1, 2))
+        for k in range(T):  # a bad frame holds the last good pose (flagged)
+            if finite[k]:
+                self.last_quats = q[k]
+            else:
+                q[k] = self.last_quats
+        angles = joints.joint_angles(q, limits=self.config.limits)
+        z = np.zeros((T, N_IMUS))
+        flags = np.repeat(np.where(finite, 0, NONFINITE).astype(np.uint8)[:, None], N_IMUS, axis=1)
+        valid = np.repeat(finite[:, None], N_JOINTS, axis=1)
+        return Fused(_seq(seq, T), np.asarray(t_us, np.int64), q, angles, valid, flags, z, z, z, z, z, "pose")
+
+    def process_block(self, raw, t_us, ok_mask=None, accel_fs_g: int = 16, gyro_fs_dps: int = 2000,
+                      seq=None) -> Fused:
+        """T raw frames at once (raw (T, 12, 7) registers, t_us (T,) device µs, ok_mask (T,) bit masks)."""
+        raw = np.asarray(raw)
+        T = len(raw)
+        t_us = np.asarray(t_us, np.int64)
+        flags = self.check(raw, ok_mask)
+        fuse = flags == 0
+        cal_ = self.calibration
+        accel = raw[..., 0:3].astype(float) * (accel_fs_g / 32768.0) - cal_.accel_offset
+        gyro = np.radians(raw[..., 3:6].astype(float) * (gyro_fs_dps / 32768.0)) - cal_.gyro_bias
+        out = _Out(T)
+        k = 0
+        while k < T:
+            fresh = fuse[k:] & ~self.started
+            first = int(np.argmax(fresh.any(axis=1))) + k if fresh.any() else T
+            if first > k:  # frames where every fused IMU has started: one compiled call (or the reference)
+                self._steps(k, first, accel, gyro, t_us, fuse, out)
+            if first < T:  # an IMU's first sample: the reference step initialises it
+                self._step(first, accel[first], gyro[first], int(t_us[first]), fuse[first], out)
+            k = first + 1
+        valid = ~(~fuse[:, None, :] & _JOINT_IMU_MASK[None]).any(axis=2)
+        return Fused(_seq(seq, T), t_us, out.quats, out.angles, valid, flags, out.accel_error, out.trust,
+                     out.bias_change, out.constraint, out.heading)
+
+    def _steps(self, k0, k1, accel, gyro, t_us, fuse, out) -> None:
+        if self.config.engine == "numpy" or not kernels.AVAILABLE:
+            for k in range(k0, k1):
+                self._step(k, accel[k], gyro[k], int(t_us[k]), fuse[k], out)
+            return
+        c, f, tr = self.config, self.filter, self.tracker
+        s = f.settings
+        kind = pipeline.KINDS[c.filter]
+        if kind == 0:
+            fp, med = [s.static_gain, s.threshold1, s.threshold2], f.median
+            buf, head, count, gain = med.buf, med.head, med.count, f.gain
+        else:
+            buf, head, count, gain = np.zeros((N_IMUS, 1, 3)), np.zeros(N_IMUS, np.int64), \
+                np.zeros(N_IMUS, np.int64), np.zeros(N_IMUS)
+            fp = {1: lambda: [s.kp, s.ki, s.threshold1, s.threshold2, s.integral_limit],
+                  2: lambda: [s.beta, s.threshold1, s.threshold2],
+                  3: lambda: [s.kp, s.ki, s.root_kp, s.root_ki, s.threshold1, s.threshold2, s.integral_limit]}[kind]()
+        if kind == 3:
+            rel, root_q, root_bias = f.rel, f.root.q, f.root.bias
+            parents, order = f.parents.astype(np.int64), np.asarray(f.order, np.int64)
+        else:
+            rel, root_q, root_bias = np.zeros((N_IMUS, 4)), np.zeros((N_IMUS, 4)), np.zeros((N_IMUS, 3))
+            parents, order = np.full(N_IMUS, -1, np.int64), np.arange(N_IMUS, dtype=np.int64)
+        b = c.bias
+        tab = _TABLES
+        sl = slice(k0, k1)
+        pipeline.run(kind, f.q, f.bias, buf, head, count, gain, rel, root_q, root_bias, parents, order,
+                     np.array(fp, float), bool(getattr(s, "rotate_parent_rate", True)), tr.b, tr.still_for,
+                     np.array([b.ki, b.still_rate, b.still_time_s, b.still_tau_s, b.max_bias], float),
+                     tr.use_gravity, c.track_bias, self.C, self.heading, self.last_t,
+                     np.ascontiguousarray(quat.conj(self.calibration.mounts)), c.heading_rate, c.heading_bias_rate,
+                     c.max_dt_s, c.parent_share, c.min_visibility, tab["imu_seg"], tab["parents"], tab["parent_imu"], tab["kind"],
+                     tab["flex"], tab["abd"], tab["rest"], tab["limits"], tab["pip"], tab["dip"], c.limits,
+                     np.ascontiguousarray(accel[sl]),
+                     np.ascontiguousarray(gyro[sl]), np.ascontiguousarray(t_us[sl]), np.ascontiguousarray(fuse[sl]),
+                     out.quats[sl], out.angles[sl], out.accel_error[sl], out.trust[sl], out.bias_change[sl],
+                     out.constraint[sl], out.heading[sl])
+
+    # ------------------------------------------------------------------ one step (the numpy reference)
+    def _step(self, k, accel, gyro, t_us, fuse, out) -> None:
+        c = self.config
+        new = fuse & ~self.started
+        if new.any():  # an IMU seen for the first time: attitude from gravity, reference from the model
+            self.filter.reset(accel, new)
+            self.started |= new
+            self.last_t[new] = t_us
+            self.C[new] = cal.reference(self.filter.q, self.calibration.mounts,
+                                        self.calibration.reference_angles)[new]
+            fuse = fuse & ~new
+        dt = ((t_us - self.last_t) & 0xFFFFFFFF) * 1e-6
+        dt = np.clip(dt, 0.0, c.max_dt_s)
+        self.last_t = np.where(fuse, t_us, self.last_t)
+        an = np.linalg.norm(accel, axis=1)
+        trust = gain_factor(an)
+        q = self.filter.update(gyro - self.tracker.b, accel, dt, fuse)
+        if c.track_bias:
+            self.tracker.update(gyro, accel, q, trust, dt, fuse)
+        seg = quat.mul(quat.mul(self.C, q), quat.conj(self.calibration.mounts))
+        g16 = np.tile(quat.IDENTITY, (N_SEGMENTS, 1))
+        g16[_IMU_SEG] = seg
+        for s in _NO_IMU:
+            g16[s] = g16[PARENTS[s]]
+        rel = relative_quats(g16)
+        free = joints.joint_angles(rel, limits=False, interpolate=False)
+        crel = joints.constrained_relative(free)
+        crel[0] = g16[0]
+        # each joint's heading error: where the parent's estimate and the constrained joint put the child
+        cl = quat.mul(g16[_PARENT_SEG], crel[_IMU_SEG])
+        err = quat.mul(cl, quat.conj(seg))
+        axis = quat.rotate(cl, np.where((_IMU_KIND == 2)[:, None], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]))
+        # the part of a heading change (about world z) the joint can see, in the world: for a hinge all but the
+        # part about its axis, for a 2-DoF joint only the twist about the bone
+        seen = np.where((_IMU_KIND == 2)[:, None], UP - axis[:, 2:3] * axis, axis[:, 2:3] * axis)
+        vis = np.sum(seen * UP, axis=1)
+        both = fuse & fuse[_PARENT_IMU_SAFE] & (_PARENT_IMU >= 0) & (vis >= c.min_visibility)
+        e = np.where(both, 2.0 * np.arctan2(err[:, 3], err[:, 0]), 0.0)
+        e = (e + np.pi) % (2 * np.pi) - np.pi
+        psi = (1.0 - c.parent_share) * e  # the child turns towards the joint's allowed rotations ...
+        np.add.at(psi, _PARENT_IMU_SAFE, -c.parent_share * e)  # ... and the parent towards the child
+        bvec = (1.0 - c.parent_share) * e[:, None] * seen  # the same for the bias, along what the joint sees
+        np.add.at(bvec, _PARENT_IMU_SAFE, -c.parent_share * e[:, None] * seen)
+        if c.heading_rate > 0.0:
+            step = c.heading_rate * dt * psi
+            self.C = quat.normalize(quat.mul(quat.from_axis_angle(UP, step), self.C))
+            self.heading += step
+            if c.track_bias and c.heading_bias_rate > 0.0:
+                self.tracker.add_heading(bvec, q, c.heading_bias_rate * dt, fuse)
+        angles = joints.clip(free) if c.limits else free
+        angles = joints.interpolate_dip(angles)
+        quats = joints.constrained_relative(angles)
+        quats[0] = g16[0]
+        out.quats[k] = quats
+        out.angles[k] = angles
+        out.accel_error[k] = np.abs(an - 1.0)
+        out.trust[k] = trust
+        out.bias_change[k] = np.linalg.norm(self.tracker.b + self.filter.bias, axis=1)
+        out.constraint[k] = quat.angle_between(rel[_IMU_SEG], crel[_IMU_SEG])
+        out.constraint[k, 0] = 0.0
+        out.heading[k] = self.heading
+
+
+class _Out:
+    def __init__(self, T):
+        self.quats = np.empty((T, N_SEGMENTS, 4))
+        self.angles = np.empty((T, N_JOINTS))
+        self.accel_error, self.trust, self.bias_change, self.constraint, self.heading = (
+            np.empty((T, N_IMUS)) for _ in range(5))
+
+
+def _seq(seq, T):
+    return np.arange(T) if seq is None else np.asarray(seq, np.int64)
+
+
+def _last_t(rec):
+    if isinstance(rec, (tuple, list)) and len(rec) and isinstance(rec[-1], RawFrame):
+        return rec[-1].t_us
+    if isinstance(rec, (tuple, list)) and len(rec) == 2 and np.ndim(rec[0]) == 3 and np.shape(rec[0])[-1] == 7:
+        return int(np.asarray(rec[1])[-1])
+    return None
+
+
+def _arrays(rec, dt: float = 0.005, accel_fs_g: int = 16, gyro_fs_dps: int = 2000):
+    """(gyro rad/s, accel g, dt s, temperature °C (12,) or NaN) of a recording given as RawFrames, as a
+    (raw registers (T, 12, 7), t_us (T,)) pair, or as a (gyro, accel[, dt]) tuple of float arrays."""
+    if isinstance(rec, (tuple, list)) and len(rec) and not isinstance(rec[0], RawFrame):
+        first = np.asarray(rec[0])
+        if first.ndim == 3 and first.shape[-1] == 7:
+            raw, t = first, np.asarray(rec[1], np.int64)
+            g = np.radians(raw[..., 3:6] * (gyro_fs_dps / 32768.0))
+            a = raw[..., 0:3] * (accel_fs_g / 32768.0)
+            temp = np.mean(raw[..., 6] / MPU_TEMP_SENSITIVITY + MPU_TEMP_OFFSET_C, axis=0)
+        else:
+            g, a = first.astype(float), np.asarray(rec[1], float)
+            return g, a, (rec[2] if len(rec) > 2 else dt), np.full(g.shape[1], np.nan)
+    else:
+        frames = list(rec)
+        g = np.radians(np.stack([f.gyro_dps for f in frames]))
+        a = np.stack([f.accel_g for f in frames])
+        t = np.array([f.t_us for f in frames], np.int64)
+        temp = np.mean([f.temperature_c for f in frames], axis=0)
+    gaps = (np.diff(t) & 0xFFFFFFFF) * 1e-6
+    return g, a, np.concatenate(([np.median(gaps) if len(gaps) else dt], gaps)), temp

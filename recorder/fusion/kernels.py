@@ -1,0 +1,295 @@
+"""Compiled (numba) versions of the filters' update steps, looping over samples and IMUs: the block API and
+the live path use these; the numpy classes stay the readable reference, and tests/test_fusion_block.py checks
+that both give the same quaternions (to 1e-9). Without numba, ``AVAILABLE`` is False and callers fall back
+on the numpy classes. Every kernel updates the state arrays in place and writes q after each sample to out.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+try:
+    from numba import njit
+    AVAILABLE = True
+except ImportError:  # pragma: no cover - numba is an optional speed-up
+    AVAILABLE = False
+
+    def njit(*args, **kwargs):
+        return (lambda f: f) if not args or not callable(args[0]) else args[0]
+
+
+@njit(cache=True)
+def _normalize(w, x, y, z):
+    n = math.sqrt(w * w + x * x + y * y + z * z)
+    return w / n, x / n, y / n, z / n
+
+
+@njit(cache=True)
+def _mul(aw, ax, ay, az, bw, bx, by, bz):
+    return (aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw)
+
+
+@njit(cache=True)
+def _rotate(w, x, y, z, vx, vy, vz):
+    """q v q* as quat.rotate: v + w t + u x t with t = 2 u x v."""
+    tx = 2.0 * (y * vz - z * vy)
+    ty = 2.0 * (z * vx - x * vz)
+    tz = 2.0 * (x * vy - y * vx)
+    return (vx + w * tx + (y * tz - z * ty), vy + w * ty + (z * tx - x * tz), vz + w * tz + (x * ty - y * tx))
+
+
+@njit(cache=True)
+def _exp(rx, ry, rz):
+    """quat.from_rotvec: (cos(a/2), r * 0.5 sinc(a / 2pi))."""
+    a = math.sqrt(rx * rx + ry * ry + rz * rz)
+    if a < 1e-8:
+        s = 0.5 - a * a / 48.0
+    else:
+        s = math.sin(0.5 * a) / a
+    return math.cos(0.5 * a), rx * s, ry * s, rz * s
+
+
+@njit(cache=True)
+def _gain_factor(norm, t1, t2):
+    em = abs(norm - 1.0)
+    if em <= t1:
+        return 1.0
+    if em < t2:
+        return (t2 - em) / (t2 - t1)
+    return 0.0  # also NaN
+
+
+@njit(cache=True)
+def _insert(v, n, x):
+    """Insert x into the sorted v[:n] (room for n + 1)."""
+    j = n
+    while j > 0 and v[j - 1] > x:
+        v[j] = v[j - 1]
+        j -= 1
+    v[j] = x
+
+
+@njit(cache=True)
+def _remove(v, n, x):
+    """Remove one value equal to x from the sorted v[:n]."""
+    j = 0
+    while j < n - 1 and v[j] != x:
+        j += 1
+    while j < n - 1:
+        v[j] = v[j + 1]
+        j += 1
+
+
+@njit(cache=True)
+def _sorted_windows(buf, count):
+    """Per IMU and axis, the samples held in sorted order (n, 3, window)."""
+    n, window = buf.shape[0], buf.shape[1]
+    srt = np.empty((n, 3, window))
+    for i in range(n):
+        for c in range(3):
+            for k in range(count[i]):
+                _insert(srt[i, c], k, buf[i, k, c])
+    return srt
+
+
+@njit(cache=True)
+def complementary_step(q, buf, head, count, gain, srt, a, gyro, accel, dt, mask, static_gain, t1, t2):
+    """recorder/fusion/complementary.py, steps 1-8, one sample of every IMU (gyro, accel (n, 3), dt, mask (n,)).
+    srt (n, 3, window): each median window kept sorted (from _sorted_windows): a push removes the sample it
+    overwrites and inserts the new one, the same values as sorting the buffer; a (3,) scratch."""
+    n, window = buf.shape[0], buf.shape[1]
+    for i in range(n):
+        if not mask[i]:
+            continue
+        h = head[i]
+        m = count[i]
+        for c in range(3):
+            if m == window:
+                _remove(srt[i, c], m, buf[i, h, c])
+                _insert(srt[i, c], m - 1, accel[i, c])
+            else:
+                _insert(srt[i, c], m, accel[i, c])
+            buf[i, h, c] = accel[i, c]
+        head[i] = (h + 1) % window
+        if m < window:
+            m += 1
+            count[i] = m
+        for c in range(3):
+            v = srt[i, c]
+            a[c] = v[m // 2] if m & 1 else 0.5 * (v[m // 2 - 1] + v[m // 2])
+        w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
+        hd = 0.5 * dt[i]
+        hx, hy, hz = hd * gyro[i, 0], hd * gyro[i, 1], hd * gyro[i, 2]
+        w, x, y, z = _normalize(w - hx * x - hy * y - hz * z, x + hx * w - hy * z + hz * y,
+                                y + hx * z + hy * w - hz * x, z - hx * y + hy * x + hz * w)
+        an = math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+        alpha = static_gain * _gain_factor(an, t1, t2)
+        if alpha > 0.0:
+            gx, gy, gz = _rotate(w, x, y, z, a[0] / an, a[1] / an, a[2] / an)
+            gn = math.sqrt(gx * gx + gy * gy + gz * gz)
+            gx, gy, gz = gx / gn, gy / gn, gz / gn
+            if gz < -0.999999:
+                ax_, ay_, az_ = 0.0, gz, -gy
+                if math.sqrt(ay_ * ay_ + az_ * az_) < 1e-3:
+                    ax_, ay_, az_ = -gz, 0.0, gx
+                an_ = math.sqrt(ax_ * ax_ + ay_ * ay_ + az_ * az_)
+                dw, dx, dy, dz = 0.0, ax_ / an_, ay_ / an_, az_ / an_
+            else:
+                dw, dx, dy, dz = _normalize(1.0 + gz, gy, -gx, 0.0)
+            dw, dx, dy, dz = _normalize((1.0 - alpha) + alpha * dw, alpha * dx, alpha * dy, alpha * dz)
+            w, x, y, z = _normalize(*_mul(dw, dx, dy, dz, w, x, y, z))
+        q[i, 0], q[i, 1], q[i, 2], q[i, 3] = w, x, y, z
+        gain[i] = alpha
+
+
+@njit(cache=True)
+def complementary(q, buf, head, count, gain, gyro, accel, dt, mask, static_gain, t1, t2, out):
+    """The complementary filter over (T, n) samples; q after each sample into out (T, n, 4)."""
+    srt = _sorted_windows(buf, count)
+    a = np.empty(3)
+    for t in range(gyro.shape[0]):
+        complementary_step(q, buf, head, count, gain, srt, a, gyro[t], accel[t], dt[t], mask[t], static_gain, t1, t2)
+        out[t] = q
+
+
+@njit(cache=True)
+def _mahony_step(w, x, y, z, b, gx, gy, gz, ax, ay, az, dt, kp, ki, t1, t2, il):
+    """One Algorithm 1 step; b (3,) is updated in place; returns the new q."""
+    an = math.sqrt(ax * ax + ay * ay + az * az)
+    trust = _gain_factor(an, t1, t2)
+    ex = ey = ez = 0.0
+    if trust > 0.0 and an > 0.0:
+        ax, ay, az = ax / an, ay / an, az / an
+        vx, vy, vz = _rotate(w, -x, -y, -z, 0.0, 0.0, 1.0)
+        ex = trust * (ay * vz - az * vy)
+        ey = trust * (az * vx - ax * vz)
+        ez = trust * (ax * vy - ay * vx)
+    if math.sqrt(ex * ex + ey * ey + ez * ez) < il:
+        b[0] -= ki * ex * dt
+        b[1] -= ki * ey * dt
+        b[2] -= ki * ez * dt
+    rw, rx, ry, rz = _exp((gx + kp * ex - b[0]) * dt, (gy + kp * ey - b[1]) * dt, (gz + kp * ez - b[2]) * dt)
+    return _normalize(*_mul(w, x, y, z, rw, rx, ry, rz))
+
+
+@njit(cache=True)
+def mahony_step(q, bias, gyro, accel, dt, mask, kp, ki, t1, t2, il):
+    """recorder/fusion/mahony.py, steps 1-6, one sample of every IMU."""
+    for i in range(q.shape[0]):
+        if mask[i]:
+            q[i, 0], q[i, 1], q[i, 2], q[i, 3] = _mahony_step(
+                q[i, 0], q[i, 1], q[i, 2], q[i, 3], bias[i], gyro[i, 0], gyro[i, 1], gyro[i, 2],
+                accel[i, 0], accel[i, 1], accel[i, 2], dt[i], kp, ki, t1, t2, il)
+
+
+@njit(cache=True)
+def mahony(q, bias, gyro, accel, dt, mask, kp, ki, t1, t2, il, out):
+    for t in range(gyro.shape[0]):
+        mahony_step(q, bias, gyro[t], accel[t], dt[t], mask[t], kp, ki, t1, t2, il)
+        out[t] = q
+
+
+@njit(cache=True)
+def madgwick_step(q, gyro, accel, dt, mask, beta, t1, t2):
+    """recorder/fusion/madgwick.py, steps 1-3, one sample of every IMU."""
+    for i in range(q.shape[0]):
+        if not mask[i]:
+            continue
+        w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
+        ax, ay, az = accel[i, 0], accel[i, 1], accel[i, 2]
+        an = math.sqrt(ax * ax + ay * ay + az * az)
+        trust = _gain_factor(an, t1, t2)
+        sw = sx = sy = sz = 0.0
+        if trust > 0.0 and an > 0.0:
+            ax, ay, az = ax / an, ay / an, az / an
+            f1 = 2.0 * (x * z - w * y) - ax
+            f2 = 2.0 * (w * x + y * z) - ay
+            f3 = 1.0 - 2.0 * (x * x + y * y) - az
+            sw = -2.0 * y * f1 + 2.0 * x * f2
+            sx = 2.0 * z * f1 + 2.0 * w * f2 - 4.0 * x * f3
+            sy = -2.0 * w * f1 + 2.0 * z * f2 - 4.0 * y * f3
+            sz = 2.0 * x * f1 + 2.0 * y * f2
+            sn = math.sqrt(sw * sw + sx * sx + sy * sy + sz * sz)
+            if sn > 0.0:
+                sw, sx, sy, sz = trust * sw / sn, trust * sx / sn, trust * sy / sn, trust * sz / sn
+            else:
+                sw = sx = sy = sz = 0.0
+        dw, dx, dy, dz = _mul(w, x, y, z, 0.0, gyro[i, 0], gyro[i, 1], gyro[i, 2])
+        h = dt[i]
+        q[i, 0], q[i, 1], q[i, 2], q[i, 3] = _normalize(
+            w + (0.5 * dw - beta * sw) * h, x + (0.5 * dx - beta * sx) * h,
+            y + (0.5 * dy - beta * sy) * h, z + (0.5 * dz - beta * sz) * h)
+
+
+@njit(cache=True)
+def madgwick(q, gyro, accel, dt, mask, beta, t1, t2, out):
+    for t in range(gyro.shape[0]):
+        madgwick_step(q, gyro[t], accel[t], dt[t], mask[t], beta, t1, t2)
+        out[t] = q
+
+
+@njit(cache=True)
+def relative_step(q, rel, root_q, root_bias, bias, parents, order, gyro, accel, dt, mask,
+                  kp, ki, root_kp, root_ki, t1, t2, il, rotate_parent):
+    """recorder/fusion/relative.py (Algorithm 2, roots by Algorithm 1), one sample of every IMU."""
+    n = gyro.shape[0]
+    for i in range(n):
+        p = parents[i]
+        if p < 0:
+            if mask[i]:
+                root_q[i, 0], root_q[i, 1], root_q[i, 2], root_q[i, 3] = _mahony_step(
+                    root_q[i, 0], root_q[i, 1], root_q[i, 2], root_q[i, 3], root_bias[i],
+                    gyro[i, 0], gyro[i, 1], gyro[i, 2], accel[i, 0], accel[i, 1],
+                    accel[i, 2], dt[i], root_kp, root_ki, t1, t2, il)
+            continue
+        if not (mask[i] and mask[p]):
+            continue
+        w, x, y, z = rel[i, 0], rel[i, 1], rel[i, 2], rel[i, 3]
+        cx, cy, cz = accel[i, 0], accel[i, 1], accel[i, 2]
+        px, py, pz = accel[p, 0], accel[p, 1], accel[p, 2]
+        nc = math.sqrt(cx * cx + cy * cy + cz * cz)
+        np_ = math.sqrt(px * px + py * py + pz * pz)
+        trust = _gain_factor(1.0 + abs(nc - np_), t1, t2)
+        ex = ey = ez = 0.0
+        if trust > 0.0 and nc > 0.0 and np_ > 0.0:
+            cx, cy, cz = cx / nc, cy / nc, cz / nc
+            dx, dy, dz = _rotate(w, -x, -y, -z, px / np_, py / np_, pz / np_)
+            ex = trust * (cy * dz - cz * dy)
+            ey = trust * (cz * dx - cx * dz)
+            ez = trust * (cx * dy - cy * dx)
+        h = dt[i]
+        if math.sqrt(ex * ex + ey * ey + ez * ez) < il:
+            bias[i, 0] -= ki * ex * h
+            bias[i, 1] -= ki * ey * h
+            bias[i, 2] -= ki * ez * h
+        if rotate_parent:
+            ox, oy, oz = _rotate(w, -x, -y, -z, gyro[p, 0], gyro[p, 1], gyro[p, 2])
+        else:
+            ox, oy, oz = gyro[p, 0], gyro[p, 1], gyro[p, 2]
+        rw, rx, ry, rz = _exp((gyro[i, 0] - ox + kp * ex - bias[i, 0]) * h,
+                              (gyro[i, 1] - oy + kp * ey - bias[i, 1]) * h,
+                              (gyro[i, 2] - oz + kp * ez - bias[i, 2]) * h)
+        rel[i, 0], rel[i, 1], rel[i, 2], rel[i, 3] = _normalize(*_mul(w, x, y, z, rw, rx, ry, rz))
+    for k in range(n):
+        i = order[k]
+        p = parents[i]
+        if p < 0:
+            for c in range(4):
+                q[i, c] = root_q[i, c]
+            for c in range(3):
+                bias[i, c] = root_bias[i, c]
+        else:
+            q[i, 0], q[i, 1], q[i, 2], q[i, 3] = _mul(q[p, 0], q[p, 1], q[p, 2], q[p, 3],
+                                                      rel[i, 0], rel[i, 1], rel[i, 2], rel[i, 3])
+
+
+@njit(cache=True)
+def relative(q, rel, root_q, root_bias, bias, parents, order, gyro, accel, dt, mask,
+             kp, ki, root_kp, root_ki, t1, t2, il, rotate_parent, out):
+    for t in range(gyro.shape[0]):
+        relative_step(q, rel, root_q, root_bias, bias, parents, order, gyro[t], accel[t], dt[t], mask[t],
+                      kp, ki, root_kp, root_ki, t1, t2, il, rotate_parent)
+        out[t] = q

@@ -11,7 +11,7 @@ import pytest
 from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
 import envs
-from conftest import gloverec
+from conftest import gloverec, wait_for
 from recorder.record.store import read_sidecar
 
 
@@ -149,15 +149,19 @@ class Session:
 
 def test_keyboard_lines_end_rerecord_and_stop(emulator, tmp_path):
     emu = emulator("--rate", "200")
-    rec = Session(emu.port, tmp_path / "ds", "--episodes", "5", "--episode-time-s", "4", "--reset-time-s", "0.2")
-    rec.wait_for("recording 5 episode")
-    time.sleep(1.2)           # episode 0 is under way
+    rec = Session(emu.port, tmp_path / "ds", "--episodes", "5", "--episode-time-s", "4", "--reset-time-s", "0.2",
+                  "--task", "grasp")  # grasp episodes never end early on success: the keys decide
+    rec.wait_for("episode 0 started")
+    time.sleep(0.5)
     rec.key("rerecord")
     rec.wait_for("re-recording it")
-    time.sleep(1.2)
-    rec.key("next")           # ends the (re-recorded) episode 0 early
+    rec.wait_for("episode 0 started: ", timeout=30)
+    assert wait_for(lambda: sum("episode 0 started" in ln for ln in rec.lines) == 2, 30)
+    time.sleep(0.8)
+    rec.key("next")           # ends the re-recorded episode 0 early
     rec.wait_for("episode 0 saved")
-    time.sleep(1.2)
+    rec.wait_for("episode 1 started")
+    time.sleep(0.8)
     rec.key("stop")           # saves episode 1 so far and ends the session
     summary, _ = rec.finish()
     assert summary["episodes_saved"] == 2 and summary["rerecorded"] == 1
@@ -168,9 +172,10 @@ def test_keyboard_lines_end_rerecord_and_stop(emulator, tmp_path):
 
 def test_unplug_discards_the_episode_and_recording_carries_on(emulator, tmp_path):
     emu = emulator("--rate", "200")
-    rec = Session(emu.port, tmp_path / "ds", "--episodes", "2", "--episode-time-s", "2.5", "--reset-time-s", "0.2")
-    rec.wait_for("recording 2 episode")
-    time.sleep(1.2)  # in episode 0
+    rec = Session(emu.port, tmp_path / "ds", "--episodes", "2", "--episode-time-s", "2.5", "--reset-time-s", "0.2",
+                  "--task", "grasp")
+    rec.wait_for("episode 0 started")
+    time.sleep(0.5)
     emu.unplug()
     time.sleep(1.0)
     emu.replug()

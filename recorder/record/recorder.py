@@ -178,6 +178,8 @@ class Recorder:
             return ("ended" if self.glove.finished else "stop"), None
         if self.logger is not None:
             self.logger.mark("episode_start", episode=index, seed=seed, glove_time_s=start)
+        if not self.fast:
+            self._say(f"episode {index} started: {self.task_text} (→ ends it, ← records it again, Esc stops)")
         return self._record(index, seed, obs, start, None if planned is None else planned[2])
 
     def _wait_for_start(self) -> float | None:

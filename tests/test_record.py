@@ -104,6 +104,7 @@ def test_sigkill_during_recording_keeps_saved_episodes_and_resume_continues(tmp_
     (["--repo-id", "../evil"], "bad repo id"),
     (["--repo-id", "noslash"], "bad repo id"),
     (["--fps", "0"], "fps"),
+    (["--task", "grasp", "--episode-time-s", "1"], "too short"),
     (["--glove", "/dev/does-not-exist"], "no such port"),
 ])
 def test_bad_input_is_one_line(tmp_path, args, needle):
@@ -172,7 +173,7 @@ def test_keyboard_lines_end_rerecord_and_stop(emulator, tmp_path):
 
 def test_unplug_discards_the_episode_and_recording_carries_on(emulator, tmp_path):
     emu = emulator("--rate", "200")
-    rec = Session(emu.port, tmp_path / "ds", "--episodes", "2", "--episode-time-s", "2.5", "--reset-time-s", "0.2",
+    rec = Session(emu.port, tmp_path / "ds", "--episodes", "2", "--episode-time-s", "3.6", "--reset-time-s", "0.2",
                   "--task", "grasp")
     rec.wait_for("episode 0 started")
     time.sleep(0.5)

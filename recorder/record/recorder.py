@@ -164,7 +164,10 @@ class Recorder:
     def _one_episode(self, index: int) -> tuple[str, dict | None]:
         planned = self.plan.pop(0) if self.plan else None
         seed = self.cfg.seed + index if planned is None else planned[0]
-        obs, info = self.env.reset(seed=seed)
+        try:
+            obs, info = self.env.reset(seed=seed)
+        except ValueError as exc:  # a task setting that cannot work (e.g. too short for the grasp script)
+            raise GloverecError(str(exc)) from None
         self.task_text = self.cfg.task_text or task_text(self.cfg.task, info)
         self.retarget.reset()
         if self.demonstrator is not None:

@@ -72,6 +72,7 @@ class Recorder:
             if cfg.episode_time_s:
                 env_opts["episode_s"] = float(cfg.episode_time_s)
             self.env = envs.make(cfg.task, cfg.robot, **env_opts)
+            self.env.reset(seed=cfg.seed)  # a task setting that cannot work fails here, before anything is written
         except ValueError as exc:
             raise GloverecError(str(exc)) from None
         self.u = self.env.unwrapped
@@ -164,10 +165,7 @@ class Recorder:
     def _one_episode(self, index: int) -> tuple[str, dict | None]:
         planned = self.plan.pop(0) if self.plan else None
         seed = self.cfg.seed + index if planned is None else planned[0]
-        try:
-            obs, info = self.env.reset(seed=seed)
-        except ValueError as exc:  # a task setting that cannot work (e.g. too short for the grasp script)
-            raise GloverecError(str(exc)) from None
+        obs, info = self.env.reset(seed=seed)
         self.task_text = self.cfg.task_text or task_text(self.cfg.task, info)
         self.retarget.reset()
         if self.demonstrator is not None:

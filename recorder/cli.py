@@ -126,8 +126,8 @@ def cmd_emulate(args) -> int:
         raise GloverecError(f"cannot create the emulator's port: {exc}") from None
     print(f"port: {port}", flush=True)
     # kill -USR1 unplugs the emulated USB cable, kill -USR2 plugs it back in (tests, manual checks)
-    signal.signal(signal.SIGUSR1, lambda *_: emu.unplug())
-    signal.signal(signal.SIGUSR2, lambda *_: emu.replug())
+    signal.signal(signal.SIGUSR1, lambda *_: emu.request("unplug"))
+    signal.signal(signal.SIGUSR2, lambda *_: emu.request("replug"))
     try:
         emu.run(args.duration)
     finally:

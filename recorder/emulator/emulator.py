@@ -73,6 +73,7 @@ class Emulator:
         self.realtime = True
         self.horizon_s = 0.0      # session time up to which motion has been synthesised (fixed from then on)
         self._buttons: list[float] = []
+        self._requests: list[str] = []
         self._t_us = time.monotonic_ns() // 1000
 
     def _start_core(self, motion, seed: int, mode: str):
@@ -109,6 +110,19 @@ class Emulator:
             self._write(self._status() + self._event(EventCode.BOOT))
         return self.link or self.port
 
+    def request(self, what: str) -> None:
+        """Unplug or replug from a signal handler or another thread: done by the streaming loop at its next
+        sample (a handler that took the lock itself could deadlock against the interrupted write)."""
+        self._requests.append(what)
+
+    def _serve_requests(self) -> None:
+        while self._requests:
+            what = self._requests.pop(0)
+            if what == "unplug" and self.plugged:
+                self.unplug()
+            elif what == "replug" and not self.plugged:
+                self.replug()
+
     def unplug(self) -> None:
         with self._lock:
             if self.link and os.path.islink(self.link):
@@ -144,6 +158,7 @@ class Emulator:
         block, i = None, 0
         batch: list[bytes] = []
         while not self._stop.is_set():
+            self._serve_requests()
             t = k * period  # session time of this sample
             if duration is not None and t >= duration:
                 break

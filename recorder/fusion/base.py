@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from recorder.fusion.gravity import attitude_from_gravity
+from recorder.fusion.gravity import attitude_from_gravity, gain_factor
 
 
 def as_mask(mask, n: int) -> np.ndarray:
@@ -45,6 +45,15 @@ class Filter:
     def update(self, gyro, accel, dt, mask=None) -> np.ndarray:
         """One step for the masked IMUs; returns ``q``."""
         raise NotImplementedError
+
+    def _inputs(self, accel, dt, mask, t1: float, t2: float):
+        """The masked step's inputs: (mask, dt (k, 1), accel (k, 3), its norm (k, 1), accelerometer trust
+        (k, 1) from the thesis' eq. 3.19 ramp between thresholds ``t1`` and ``t2``)."""
+        m = as_mask(mask, self.n)
+        dt = np.broadcast_to(np.asarray(dt, float), (self.n,))[m, None]
+        a = np.asarray(accel, float).reshape(self.n, 3)[m]
+        an = np.linalg.norm(a, axis=1, keepdims=True)
+        return m, dt, a, an, gain_factor(an[:, 0], t1, t2)[:, None]
 
     def state(self) -> dict:
         """Every state array by name (copies), for the block kernels and for checkpoints."""

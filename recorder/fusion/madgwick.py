@@ -13,8 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from recorder import quat
-from recorder.fusion.base import Filter, as_mask
-from recorder.fusion.gravity import gain_factor
+from recorder.fusion.base import Filter
 
 
 @dataclass
@@ -48,11 +47,7 @@ class MadgwickFilter(Filter):
 
     def update(self, gyro, accel, dt, mask=None) -> np.ndarray:
         s = self.settings
-        m = as_mask(mask, self.n)
-        dt = np.broadcast_to(np.asarray(dt, float), (self.n,))[m, None]
-        a = np.asarray(accel, float).reshape(self.n, 3)[m]
-        an = np.linalg.norm(a, axis=1, keepdims=True)
-        trust = gain_factor(an[:, 0], s.threshold1, s.threshold2)[:, None]
+        m, dt, a, an, trust = self._inputs(accel, dt, mask, s.threshold1, s.threshold2)
         q = self.q[m]
         grad = gradient(q, np.where(trust > 0.0, a / np.where(an > 0.0, an, 1.0), 0.0))   # 1
         gn = np.linalg.norm(grad, axis=1, keepdims=True)

@@ -11,10 +11,11 @@ export MUJOCO_GL ?= egl
 
 install: $(STAMP)
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml policies/plugin/pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e '.[test]'
+	$(PY) -m pip install -q --no-deps -e policies/plugin   # the LeRobot plugin: lerobot-train --policy.type=gloverec_bc
 	@touch $(STAMP)
 
 demo: $(STAMP)

@@ -1,2 +1,6 @@
-"""gloverec behaviour-cloning policies (LeRobot plugins). They land here with the behaviour-cloning issue;
-the package exists now so the layout the user asked for is in place."""
+"""gloverec policies: learning from the recorded demonstrations, with LeRobot (docs/policies.md).
+
+``bc`` is the behaviour-cloning policy, LeRobot policy type ``gloverec_bc`` (importing it registers it);
+``train``, ``evaluate`` and ``replay`` are the `gloverec train`, `gloverec eval` and `gloverec replay` commands,
+whose flags live in ``cli`` (``add_parsers``). Nothing heavy is imported here: `gloverec --help` stays fast.
+"""

@@ -83,6 +83,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.set_defaults(func=cmd_bridge)
 
     from envs import view
+    from policies import cli as policies_cli
     from recorder.hub import cli as hub_cli
     from recorder.record import cli as record_cli
     from recorder.record import inspect as inspect_cli
@@ -92,6 +93,7 @@ def build_parser() -> argparse.ArgumentParser:
     record_cli.add_rerecord_parser(sub)
     inspect_cli.add_parsers(sub)
     hub_cli.add_parsers(sub)
+    policies_cli.add_parsers(sub)
     return p
 
 

@@ -1,0 +1,151 @@
+"""Learning benchmark: do emulated-glove demonstrations teach a policy?
+
+    .venv/bin/python bench/learning.py [--episodes 50] [--eval-episodes 50] [--steps 3000]
+                                       [--robots glovehand,shadow] [--tasks pose,grasp] [--act-steps 1500]
+
+For each task and robot, with the gloverec commands a user runs (each in a child process):
+  record --episodes N (emulated glove, scripted demonstrator, seeds 0..N-1) -> push to a local hub
+  -> replay every episode open loop (max |replayed - recorded state|; goal: 0, MuJoCo is deterministic)
+  -> train BC (configs/train/bc.yaml, --steps; goal <= 10 min on this CPU)
+  -> eval 50 episodes with seeds 100000.. (never training seeds) (goals: HandPose >= 95 %, HandGrasp >= 80 %)
+and, on the first task/robot, LeRobot's ACT through `lerobot-train` on the same hub dataset (a short run of
+a small ACT), evaluated by `gloverec eval`. Writes bench/results/learning.json and the loss curves as
+bench/results/learning_loss_<task>_<robot>.png.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import RESULTS, write_results  # noqa: E402
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+os.environ.setdefault("HF_HUB_OFFLINE", "1")
+
+GOALS = {"pose": 0.95, "grasp": 0.80}
+TRAIN_GOAL_S = 600
+EVAL_SEED = 100_000
+ACT_FLAGS = ["--policy.type=act", "--policy.device=cpu", "--policy.push_to_hub=false", "--policy.dim_model=256",
+             "--policy.dim_feedforward=1024", "--policy.n_encoder_layers=2", "--policy.n_vae_encoder_layers=2",
+             "--policy.chunk_size=10", "--policy.n_action_steps=1", "--policy.temporal_ensemble_coeff=0.01",
+             "--policy.optimizer_lr=1e-4", "--batch_size=32", "--num_workers=0", "--eval_freq=0", "--log_freq=500"]
+
+
+def gloverec(*args: str, timeout: float = 3600) -> dict:
+    """A gloverec command with --json in a child process: its JSON object."""
+    cmd = [sys.executable, "-m", "recorder.cli", *args, "--json"]
+    print("  $ gloverec " + " ".join(args), flush=True)
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    if r.returncode != 0:
+        sys.exit(f"bench: `gloverec {' '.join(args)}` failed: {r.stderr.strip()[-2000:]}")
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+def one(task: str, robot: str, args, tmp: Path, hub: Path) -> dict:
+    repo = f"bench/{task}_{robot}"
+    t = time.perf_counter()
+    rec = gloverec("record", "--glove", "emulator", "--task", task, "--robot", robot, "--episodes",
+                   str(args.episodes), "--root", str(tmp / "rec" / f"{task}_{robot}"), "--repo-id", repo,
+                   "--seed", "0", "--fast", "--no-log")
+    record_s = time.perf_counter() - t
+    gloverec("push", "--repo-id", repo, "--root", rec["root"], "--hub", str(hub))
+
+    from policies.data import resolve
+    from policies.replay import replay
+
+    ref = resolve(repo, hub=hub)
+    replays = [replay(ref, e) for e in range(args.episodes)]
+    gloverec("replay", "--repo-id", repo, "--hub", str(hub), "--episode", "0")   # the command itself, once
+
+    out = tmp / "runs" / f"{task}_{robot}"
+    t = time.perf_counter()
+    trained = gloverec("train", "--repo-id", repo, "--hub", str(hub), "--steps", str(args.steps), "--out", str(out))
+    train_s = time.perf_counter() - t
+    shutil.copyfile(out / "loss_curve.png", RESULTS / f"learning_loss_{task}_{robot}.png")
+    ev = gloverec("eval", "--policy", str(out), "--task", task, "--robot", robot, "--episodes",
+                  str(args.eval_episodes), "--seed", str(EVAL_SEED))
+    demo = gloverec("eval", "--policy", "demonstrator", "--task", task, "--robot", robot, "--episodes",
+                    str(args.eval_episodes), "--seed", str(EVAL_SEED))
+    result = {
+        "task": task, "robot": robot, "dataset": {"repo_id": repo, "episodes": rec["total_episodes"],
+                                                  "frames": rec["total_frames"],
+                                                  "demo_success_rate": rec["success_rate"],
+                                                  "record_wall_s": round(record_s, 1)},
+        "replay": {"episodes": len(replays), "max_abs_state": max(r["state_max_abs"] for r in replays),
+                   "max_abs_environment_state": max(r.get("environment_state_max_abs", 0.0) for r in replays),
+                   "reproduced": sum(r["reproduced"] for r in replays)},
+        "train": {"steps": args.steps, "train_episodes": trained["train_episodes"],
+                  "val_episodes": trained["val_episodes"], "final_train_loss": trained["final_train_loss"],
+                  "final_val_loss": trained["final_val_loss"], "wall_s": round(train_s, 1),
+                  "goal_s": TRAIN_GOAL_S, "met": train_s <= TRAIN_GOAL_S},
+        "eval": {"episodes": ev["episodes"], "seeds": ev["seeds"], "success_rate": ev["success_rate"],
+                 "mean_return": ev["mean_return"], "mean_length": ev["mean_length"],
+                 "goal": GOALS[task], "met": ev["success_rate"] >= GOALS[task]},
+        "demonstrator_same_seeds": {"success_rate": demo["success_rate"], "mean_return": demo["mean_return"]},
+    }
+    print(f"  {task}/{robot}: BC success {ev['success_rate']:.0%} (goal {GOALS[task]:.0%}), demonstrator "
+          f"{demo['success_rate']:.0%}, training {train_s:.0f} s, "
+          f"replay max |diff| {result['replay']['max_abs_state']:.3g}", flush=True)
+    return result
+
+
+def act(task: str, robot: str, steps: int, args, tmp: Path, hub: Path) -> dict:
+    repo = f"bench/{task}_{robot}"
+    out = tmp / "act"
+    cmd = [str(Path(sys.executable).with_name("lerobot-train")), f"--dataset.repo_id={repo}",
+           f"--dataset.root={hub / repo}", *ACT_FLAGS, f"--steps={steps}", f"--save_freq={steps}",
+           f"--output_dir={out}"]
+    print("  $ lerobot-train " + " ".join(cmd[1:]), flush=True)
+    t = time.perf_counter()
+    r = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, "OMP_NUM_THREADS": "1"})
+    wall = time.perf_counter() - t
+    if r.returncode != 0:
+        return {"task": task, "robot": robot, "error": r.stderr.strip()[-1500:]}
+    ev = gloverec("eval", "--policy", str(out), "--episodes", str(args.eval_episodes), "--seed", str(EVAL_SEED))
+    return {"task": task, "robot": robot, "steps": steps, "train_wall_s": round(wall, 1),
+            "command": "lerobot-train " + " ".join(cmd[1:]).replace(str(tmp), "$TMP"),
+            "eval": {"episodes": ev["episodes"], "success_rate": ev["success_rate"], "mean_return": ev["mean_return"],
+                     "mean_length": ev["mean_length"]}}
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--episodes", type=int, default=50, help="demonstrations per task and robot (<= 50)")
+    p.add_argument("--eval-episodes", type=int, default=50)
+    p.add_argument("--steps", type=int, default=3000, help="BC training steps")
+    p.add_argument("--tasks", default="pose,grasp")
+    p.add_argument("--robots", default="glovehand,shadow")
+    p.add_argument("--act-steps", type=int, default=1500, help="lerobot-train ACT steps (0: skip ACT)")
+    args = p.parse_args()
+    runs = []
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="gloverec-learning-") as tmp_name:
+        tmp = Path(tmp_name)
+        hub = tmp / "hub"
+        pairs = [(t, r) for r in args.robots.split(",") for t in args.tasks.split(",")]
+        for task, robot in pairs:
+            print(f"[{task} on {robot}]", flush=True)
+            runs.append(one(task, robot, args, tmp, hub))
+        act_result = None
+        if args.act_steps > 0:
+            print(f"[ACT through lerobot-train on {pairs[0][0]} / {pairs[0][1]}]", flush=True)
+            act_result = act(*pairs[0], args.act_steps, args, tmp, hub)
+            print(f"  ACT: {act_result.get('eval', act_result)}", flush=True)
+    write_results("learning", {
+        "episodes": args.episodes, "eval_episodes": args.eval_episodes, "eval_seeds_from": EVAL_SEED,
+        "bc_steps": args.steps, "runs": runs, "act": act_result,
+        "all_goals_met": all(r["eval"]["met"] and r["train"]["met"] for r in runs),
+        "wall_s": round(time.perf_counter() - t0, 1)})
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,202 @@
+"""`gloverec train`, `gloverec eval` and `gloverec replay`: flags here, the work in policies.train, .evaluate
+and .replay.
+
+``add_parsers(subparsers)`` adds the three commands to the `gloverec` subparsers (recorder/cli.py); each handler returns the
+exit code or raises GloverecError (one line, exit 1). With ``--json`` stdout carries exactly one JSON object
+(everything else, lerobot's chatter included, goes to stderr). Heavy modules load inside the handlers.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import sys
+
+from recorder import GloverecError
+
+HUB_HELP = "the local hub folder (default: $GLOVEREC_HUB, else datasets/hub)"
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be positive: {text!r}")
+    return value
+
+
+def _natural(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be zero or more: {text!r}")
+    return value
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be positive: {text!r}")
+    return value
+
+
+def _dataset_flags(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--repo-id", required=True, help="dataset id, USER/NAME")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--hub", help=HUB_HELP)
+    where.add_argument("--root", help="a dataset folder instead of the hub (e.g. an unpushed recording)")
+    p.add_argument("--version", help="the hub version, vN (default: the newest)")
+
+
+def add_parsers(subparsers) -> None:
+    t = subparsers.add_parser("train", help="train a behaviour-cloning policy on a recorded dataset")
+    _dataset_flags(t)
+    t.add_argument("--policy", choices=("bc",), default="bc", help="the policy to train (default bc)")
+    t.add_argument("--out", required=True, help="output folder: checkpoints, loss curve, split, summary")
+    t.add_argument("--steps", type=_positive_int, help="training steps (default: configs/train/bc.yaml)")
+    t.add_argument("--resume", action="store_true", help="continue from OUT/checkpoints/last")
+    t.add_argument("--batch-size", type=_positive_int)
+    t.add_argument("--lr", type=_positive_float, help="peak learning rate")
+    t.add_argument("--seed", type=int, help="initialisation, split and batch order")
+    t.add_argument("--save-every", type=_positive_int, help="a checkpoint every N steps (default 1000), and at the end")
+    t.add_argument("--val-fraction", type=float, help="share of episodes held out for validation (default 0.1)")
+    t.add_argument("--all-episodes", action="store_true",
+                   help="train on failed demonstrations too (default: only those marked successful)")
+    t.add_argument("--config", help="a train YAML (default: configs/train/<policy>.yaml)")
+    t.add_argument("--threads", type=_positive_int, default=1,
+                   help="torch CPU threads (default 1: fastest for small MLPs, and safe on a busy machine)")
+    t.add_argument("--json", action="store_true", help="print one JSON object at the end")
+    t.set_defaults(func=cmd_train)
+
+    e = subparsers.add_parser("eval", help="evaluate a policy in the simulated task: success rate, returns, videos")
+    e.add_argument("--policy", required=True,
+                   help="a LeRobot checkpoint (pretrained_model, checkpoint or training output folder), "
+                        "or 'demonstrator' / 'random' for the scripted demonstrator / random actions")
+    e.add_argument("--task", help="pose or grasp (default: the policy's training task)")
+    e.add_argument("--robot", help="glovehand or shadow (default: the policy's training robot)")
+    e.add_argument("--episodes", type=_positive_int, default=50, help="episodes (default 50)")
+    e.add_argument("--seed", type=_natural, help="seed of the first episode, then +1 each (default 100000, "
+                                                 "away from the recorder's seeds 0, 1, ...)")
+    e.add_argument("--video", metavar="DIR", help="write videos of the first episodes here (mp4)")
+    e.add_argument("--videos", type=_natural, default=2, help="how many episodes to film (default 2)")
+    e.add_argument("--threads", type=_positive_int, default=1, help="torch CPU threads (default 1)")
+    e.add_argument("--json", action="store_true", help="print one JSON object (success_rate, episodes, ...)")
+    e.set_defaults(func=cmd_eval)
+
+    r = subparsers.add_parser("replay", help="replay an episode's actions open loop and measure state divergence")
+    _dataset_flags(r)
+    r.add_argument("--episode", type=_natural, required=True, help="episode index")
+    r.add_argument("--video", metavar="FILE", help="write a video of the replay (mp4)")
+    r.add_argument("--json", action="store_true", help="print one JSON object")
+    r.set_defaults(func=cmd_replay)
+
+
+@contextlib.contextmanager
+def _quiet_stdout(json_mode: bool):
+    """With --json, stdout is the JSON object only: anything printed meanwhile goes to stderr."""
+    if json_mode:
+        with contextlib.redirect_stdout(sys.stderr):
+            yield
+    else:
+        yield
+
+
+def _setup(threads: int | None = None) -> None:
+    import logging
+
+    import torch
+
+    logging.getLogger().setLevel(logging.WARNING)
+    if threads:
+        torch.set_num_threads(threads)
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    from policies.data import resolve
+    from policies.train import TrainConfig, train
+
+    cfg = TrainConfig.load(args.config, policy=args.policy, steps=args.steps, batch_size=args.batch_size,
+                           lr=args.lr, seed=args.seed, val_fraction=args.val_fraction, save_every=args.save_every,
+                           successful_only=False if args.all_episodes else None)
+    ref = resolve(args.repo_id, args.hub, args.root, args.version)
+    with _quiet_stdout(args.json):
+        _setup(args.threads)
+        summary = train(ref, args.out, cfg, policy=args.policy, resume=args.resume,
+                        progress=sys.stderr.isatty() or not args.json)
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        val = summary["final_val_loss"]
+        print(f"trained {summary['policy_type']} for {summary['steps']} steps on {summary['train_episodes']} episodes "
+              f"of {ref.repo_id} in {summary['wall_s']:.0f} s: train loss {summary['final_train_loss']:.4f}, "
+              f"validation loss {'-' if val is None else f'{val:.4f}'} ({summary['val_episodes']} held-out episodes)")
+        print(f"policy: {summary['policy']}")
+        print(f"loss curve: {summary['loss_curve']}")
+    return 0
+
+
+def cmd_eval(args: argparse.Namespace) -> int:
+    from policies import evaluate as ev
+
+    seed = ev.EVAL_SEED if args.seed is None else args.seed
+    with _quiet_stdout(args.json):
+        _setup(args.threads)
+        if args.policy in ("demonstrator", "random"):
+            if not args.task or not args.robot:
+                raise GloverecError(f"--policy {args.policy} needs --task and --robot")
+            env = ev.make_env(args.task, args.robot, render_mode="rgb_array" if args.video else None,
+                              **({"image_size": ev.VIDEO_SIZE} if args.video else {}))
+            try:
+                agent = (ev.DemonstratorAgent(args.task, args.robot) if args.policy == "demonstrator"
+                         else ev.RandomAgent())
+                result = {"policy": args.policy, "policy_type": args.policy,
+                          **ev.evaluate(agent, env, args.episodes, seed, args.video, args.videos)}
+            finally:
+                env.close()
+        else:
+            result = ev.evaluate_checkpoint(args.policy, args.task, args.robot, args.episodes, seed, args.video,
+                                            args.videos, progress=sys.stderr.isatty())
+    if args.json:
+        print(json.dumps(result))
+    else:
+        print(f"{result['agent']} on {result['task']} ({result['robot']}): success {result['successes']}/"
+              f"{result['episodes']} = {100 * result['success_rate']:.0f} %, mean return {result['mean_return']:.3f}, "
+              f"mean length {result['mean_length']:.1f} steps (seeds {result['seeds'][0]}..{result['seeds'][-1]})")
+        for path in result["videos"]:
+            print(f"video: {path}")
+    return 0
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    from policies.data import resolve
+    from policies.replay import replay
+
+    ref = resolve(args.repo_id, args.hub, args.root, args.version)
+    with _quiet_stdout(args.json):
+        _setup()
+        out = replay(ref, args.episode, args.video)
+    if args.json:
+        print(json.dumps(out))
+    else:
+        verdict = ("reproduced exactly" if out["max_abs"] == 0 else "reproduced" if out["reproduced"]
+                   else f"DIVERGED from step {out['first_divergent_step']}")
+        print(f"episode {out['episode']} of {out['repo_id']} ({out['task']} on {out['robot']}, seed {out['seed']}, "
+              f"{out['frames']} frames): {verdict}; state max |diff| {out['state_max_abs']:.3g}, mean "
+              f"{out['state_mean_abs']:.3g}; environment state max {out.get('environment_state_max_abs', 0):.3g}; "
+              f"success recorded {out['recorded_success']}, replayed {out['replayed_success']}")
+        if out.get("video"):
+            print(f"video: {out['video']}")
+    if not out["reproduced"]:
+        raise GloverecError(f"the replay of episode {out['episode']} diverged from the recording at step "
+                            f"{out['first_divergent_step']} (max |diff| {out['max_abs']:.3g}): the dataset, the robot "
+                            "or task configs, or the simulator changed since it was recorded")
+    return 0
+

@@ -1,0 +1,164 @@
+"""Datasets for training: where a dataset is (local hub or a recording folder), its train/validation split by
+episode, and an in-memory copy of the frames a policy trains on.
+
+The copy is made once through LeRobotDataset with the policy's ``delta_timestamps`` (action chunks, with
+``action_is_pad`` past an episode's end), so batches are exactly what lerobot-train would feed the policy,
+without the per-item cost at every step. Images are kept as uint8. Datasets too big for memory belong to
+``lerobot-train --policy.type=gloverec_bc`` (docs/policies.md).
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from recorder import GloverecError
+
+MIN_STD = 1e-3   # floor of the normalisation std: features (nearly) constant in the demonstrations stay O(1)
+
+
+@dataclass(frozen=True)
+class DatasetRef:
+    repo_id: str
+    root: Path
+    version: str | None = None   # the hub version (vN) when it came from the hub
+
+    def as_dict(self) -> dict:
+        return {"repo_id": self.repo_id, "root": str(self.root), "version": self.version}
+
+
+def resolve(repo_id: str, hub: str | os.PathLike | None = None, root: str | os.PathLike | None = None,
+            version: str | None = None) -> DatasetRef:
+    """The dataset ``repo_id``: ``root`` if given (a recording, e.g. datasets/recordings/USER/NAME), else its
+    version in the local hub (the newest unless ``version``); a GloverecError says what is missing."""
+    from recorder.hub.names import parse_repo_id
+
+    parse_repo_id(repo_id)
+    if root is not None:
+        path = Path(root)
+        if not (path / "meta" / "info.json").is_file():
+            raise GloverecError(f"{root} is not a LeRobot dataset (no meta/info.json)")
+        return DatasetRef(repo_id, path.absolute(), None)
+    from recorder.hub.store import Hub
+
+    v = Hub(hub).version(repo_id, version)
+    return DatasetRef(repo_id, v.path.resolve(), v.tag)
+
+
+@functools.lru_cache(maxsize=1)
+def video_backend() -> str:
+    """LeRobot's video decoder to use: torchcodec when its FFmpeg libraries load, else PyAV (lerobot picks
+    torchcodec whenever the package is installed, even where it cannot load)."""
+    try:
+        import torchcodec.decoders  # noqa: F401
+    except Exception:  # noqa: BLE001  (RuntimeError/OSError: FFmpeg shared libraries missing)
+        return "pyav"
+    return "torchcodec"
+
+
+def load_meta(ref: DatasetRef):
+    from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
+
+    try:
+        return LeRobotDatasetMetadata(ref.repo_id, root=ref.root)
+    except Exception as exc:  # noqa: BLE001  (lerobot raises many kinds; the user needs one line)
+        raise GloverecError(f"cannot read the dataset {ref.repo_id} at {ref.root}: {exc}") from None
+
+
+def sidecar(root: Path) -> dict[int, dict]:
+    """Our per-episode metadata (seed, success, robot, task, ...) by episode index."""
+    from recorder.record.store import read_sidecar
+
+    return {int(e["episode_index"]): e for e in read_sidecar(root)}
+
+
+def split_episodes(meta, root: Path, val_fraction: float, seed: int, successful_only: bool) -> tuple[list, list]:
+    """(train, validation) episode indices: a seeded shuffle, the last ``val_fraction`` for validation
+    (at least one when there are two or more episodes). ``successful_only`` keeps the episodes our sidecar
+    marks successful (all of them when the dataset has no sidecar)."""
+    episodes = list(range(meta.total_episodes))
+    side = sidecar(root)
+    if successful_only and side:
+        episodes = [e for e in episodes if side.get(e, {}).get("success", True)]
+    if not episodes:
+        raise GloverecError(f"{root} has no {'successful ' if successful_only else ''}episodes to train on")
+    rng = np.random.default_rng(seed)
+    order = [int(e) for e in rng.permutation(episodes)]
+    n_val = 0 if len(order) < 2 or val_fraction <= 0 else max(1, int(round(val_fraction * len(order))))
+    n_val = min(n_val, len(order) - 1)
+    return sorted(order[: len(order) - n_val]), sorted(order[len(order) - n_val:])
+
+
+class FrameCache:
+    """Every frame of some episodes as stacked tensors: the policy's inputs, ``action`` (chunks) and
+    ``action_is_pad``. ``batch(indices)`` gives a training batch; images come back as float in [0, 1]."""
+
+    def __init__(self, ref: DatasetRef, episodes: list[int], keys: list[str], delta_timestamps: dict | None,
+                 progress: bool = True):
+        from lerobot.datasets.lerobot_dataset import LeRobotDataset
+        from tqdm import tqdm
+
+        self.episodes = list(episodes)
+        self.data: dict[str, torch.Tensor] = {}
+        if not episodes:
+            return
+        ds = LeRobotDataset(ref.repo_id, root=ref.root, episodes=self.episodes, delta_timestamps=delta_timestamps,
+                            video_backend=video_backend() if _has_videos(ref.root) else None)
+        wanted = [k for k in (*keys, "action_is_pad") if k in ds.features or k == "action_is_pad"]
+        columns: dict[str, list] = {k: [] for k in wanted}
+        for i in tqdm(range(len(ds)), desc=f"loading {len(episodes)} episode(s)", unit="frame",
+                      disable=not progress, leave=False):
+            item = ds[i]
+            for k in wanted:
+                if k in item:
+                    v = item[k]
+                    columns[k].append((v * 255).round().to(torch.uint8) if self._is_image(k, v) else v)
+        self.data = {k: torch.stack(v) for k, v in columns.items() if v}
+
+    @staticmethod
+    def _is_image(key: str, value) -> bool:
+        return key.startswith("observation.images.") and torch.is_floating_point(value)
+
+    def __len__(self) -> int:
+        return len(next(iter(self.data.values()))) if self.data else 0
+
+    def batch(self, indices: torch.Tensor) -> dict[str, torch.Tensor]:
+        out = {}
+        for k, v in self.data.items():
+            x = v[indices]
+            out[k] = x.float() / 255 if x.dtype == torch.uint8 else x
+        return out
+
+    def stats(self, keys: list[str], base: dict) -> dict[str, dict[str, np.ndarray]]:
+        """Normalisation statistics of these frames (lerobot's get_feature_stats) for vector features; image
+        statistics from ``base`` (the dataset's). Stds are floored at MIN_STD."""
+        from lerobot.datasets.compute_stats import get_feature_stats
+
+        out = {k: dict(v) for k, v in base.items()}
+        for k in keys:
+            if k not in self.data or k.startswith("observation.images."):
+                continue
+            x = self.data[k]
+            if k == "action" and x.dim() == 3:
+                x = x[:, 0]           # the frame's own action: every recorded action exactly once
+            s = get_feature_stats(x.numpy().astype(np.float64), axis=0, keepdims=False)
+            s["std"] = np.maximum(s["std"], MIN_STD)
+            out[k] = s
+        return out
+
+
+def _has_videos(root: Path) -> bool:
+    return any(f.get("dtype") == "video" for f in dataset_info(root).get("features", {}).values())
+
+
+def dataset_info(root: Path) -> dict:
+    try:
+        return json.loads((Path(root) / "meta" / "info.json").read_text())
+    except (OSError, ValueError):
+        return {}

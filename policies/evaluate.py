@@ -1,0 +1,325 @@
+"""`gloverec eval`: run a policy in a gloverec environment for N episodes with fixed seeds; success rate,
+returns, episode lengths and videos.
+
+Anything that acts is an *agent* (``reset(env, seed)``, ``act(obs) -> action``), so the same harness scores
+a LeRobot checkpoint (``PolicyAgent``: our BC, ACT from lerobot-train, any type LeRobot's factory knows),
+the scripted demonstrator the datasets were recorded with (``DemonstratorAgent``) and uniform random actions
+(``RandomAgent``): the metric is shown to fail and to succeed with the same code.
+
+A checkpoint is checked against the environment before anything runs: every input the policy reads
+(``observation.state``, ``observation.environment_state``, ``observation.images.*``) must be observed with the
+same shape (and, when the training dataset's feature names are known, the same names), and ``action`` must
+match the action space; otherwise one GloverecError line says which feature differs.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from recorder import GloverecError
+
+EVAL_SEED = 100_000     # recordings use seeds 0, 1, ... by default: evaluation episodes are never training ones
+VIDEO_SIZE = (384, 512)  # (H, W), multiples of 16 for the codec; of videos when the policy has no cameras of its own
+
+
+# ---------------------------------------------------------------- agents
+
+class PolicyAgent:
+    """A LeRobot policy with its processors, acting on gloverec observations."""
+
+    def __init__(self, policy, pre, post, path: Path, context: dict):
+        self.policy, self.pre, self.post, self.path, self.context = policy, pre, post, Path(path), context
+        cfg = policy.config
+        self.type = cfg.type
+        self.inputs = consumed_features(cfg)
+        self.name = f"{cfg.type} ({path})"
+
+    def reset(self, env, seed: int) -> None:
+        self.policy.reset()
+
+    def act(self, obs: dict) -> np.ndarray:
+        import torch
+
+        batch = {}
+        for key in self.inputs:
+            x = torch.from_numpy(np.ascontiguousarray(obs[key]))
+            batch[key] = x.permute(2, 0, 1).float() / 255 if key.startswith("observation.images.") else x.float()
+        with torch.inference_mode():
+            action = self.post(self.policy.select_action(self.pre(batch)))
+        return action.squeeze(0).cpu().numpy()
+
+
+class DemonstratorAgent:
+    """The recorder's scripted demonstrator, through the retargeter (what `gloverec record` demonstrates with the
+    emulated glove, without the glove's sensor noise)."""
+
+    def __init__(self, task: str, robot: str):
+        from recorder.demonstrator import make_demonstrator
+
+        self.demo = make_demonstrator(task)
+        self.robot = robot
+        self.name = f"scripted {task} demonstrator"
+        self.retarget = None
+        self.motion = None
+        self.env = None
+
+    def reset(self, env, seed: int) -> None:
+        from recorder.retarget import Retargeter
+
+        self.env = env.unwrapped
+        if self.retarget is None:
+            self.retarget = Retargeter(self.robot, "joint", base_rotation=self.env.config.base_rotation)
+        self.retarget.reset()
+        self.motion = self.demo.plan(self.env, seed=seed)
+
+    def act(self, obs: dict) -> np.ndarray:
+        block = self.motion.at([self.env.t])
+        action, _ = self.retarget(block.angles[0], block.palm_quat[0])
+        return action
+
+
+class RandomAgent:
+    """Uniformly random actions in the action space (seeded per episode)."""
+
+    name = "random actions"
+
+    def reset(self, env, seed: int) -> None:
+        self.space = env.action_space
+        self.space.seed(seed)
+
+    def act(self, obs: dict) -> np.ndarray:
+        return self.space.sample()
+
+
+# ---------------------------------------------------------------- loading checkpoints
+
+def find_pretrained(path: str | Path) -> Path:
+    """The pretrained_model folder of ``path``: itself, PATH/pretrained_model or PATH/checkpoints/last/..."""
+    p = Path(path)
+    for c in (p, p / "pretrained_model", p / "checkpoints" / "last" / "pretrained_model"):
+        if (c / "config.json").is_file() and (c / "model.safetensors").is_file():
+            return c.resolve()   # checkpoints/last moves on as training goes on: report the step's folder
+    raise GloverecError(f"{path} holds no LeRobot policy (config.json + model.safetensors): give a "
+                        "pretrained_model folder, a checkpoint folder or a training output folder")
+
+
+def policy_context(pretrained: Path) -> dict:
+    """What the checkpoint says about its training data: fps, robot, task and feature names. From our
+    gloverec.json, else from lerobot-train's train_config.json -> the dataset's info.json and sidecar."""
+    ours = pretrained / "gloverec.json"
+    if ours.is_file():
+        return json.loads(ours.read_text())
+    ctx: dict = {"fps": None, "robot": None, "task": None, "names": {}}
+    try:
+        ds = json.loads((pretrained / "train_config.json").read_text())["dataset"]
+        root = Path(ds["root"]) if ds.get("root") else None
+    except (OSError, ValueError, KeyError, TypeError):
+        return ctx
+    if root is not None and (root / "meta" / "info.json").is_file():
+        from policies.data import dataset_info, sidecar
+
+        info = dataset_info(root)
+        side = sidecar(root)
+        first = side[min(side)] if side else {}
+        ctx.update(fps=info.get("fps"), robot=info.get("robot_type") or first.get("robot"),
+                   task=first.get("env_task"), dataset={"repo_id": ds.get("repo_id"), "root": str(root)},
+                   names={k: v.get("names") for k, v in info.get("features", {}).items()})
+    return ctx
+
+
+def load_policy(path: str | Path, device: str = "cpu") -> PolicyAgent:
+    """Any LeRobot checkpoint whose type LeRobot knows (built-in, or ours: importing policies.bc registers it)."""
+    import draccus
+    from lerobot.configs.policies import PreTrainedConfig
+    from lerobot.policies.factory import get_policy_class, make_pre_post_processors
+
+    import policies.bc  # noqa: F401  (registers gloverec_bc)
+
+    pretrained = find_pretrained(path)
+    try:
+        kind = json.loads((pretrained / "config.json").read_text()).get("type")
+    except ValueError as exc:
+        raise GloverecError(f"{pretrained}/config.json is not JSON: {exc}") from None
+    if kind not in PreTrainedConfig.get_known_choices():
+        raise GloverecError(f"{pretrained} is a policy of type {kind!r}, which LeRobot does not know here "
+                            f"(known: {', '.join(sorted(PreTrainedConfig.get_known_choices()))})")
+    try:
+        cfg = PreTrainedConfig.from_pretrained(pretrained, cli_overrides=[f"--device={device}"])
+        cfg.pretrained_path = pretrained
+        with contextlib.redirect_stdout(io.StringIO()):   # lerobot prints "Loading weights from local directory"
+            policy = get_policy_class(kind).from_pretrained(pretrained, config=cfg)
+        steps = json.loads((pretrained / "policy_preprocessor.json").read_text()).get("steps", [])
+        overrides = ({"device_processor": {"device": device}}
+                     if any(s.get("registry_name") == "device_processor" for s in steps) else {})
+        pre, post = make_pre_post_processors(cfg, pretrained_path=str(pretrained),
+                                             preprocessor_overrides=overrides)
+    except (OSError, ValueError, KeyError, draccus.utils.ParsingError) as exc:
+        raise GloverecError(f"cannot load the policy in {pretrained}: {exc}") from None
+    return PolicyAgent(policy, pre, post, pretrained, policy_context(pretrained))
+
+
+# ---------------------------------------------------------------- features
+
+def consumed_features(cfg) -> dict:
+    """The inputs a LeRobot policy reads: observation.state, the environment state and the images.
+    Other dataset features LeRobot lists as inputs (observation.glove: the human hand) are not read."""
+    from lerobot.configs.types import FeatureType
+
+    out = {}
+    if cfg.robot_state_feature is not None:
+        out["observation.state"] = cfg.robot_state_feature
+    for key, ft in (cfg.input_features or {}).items():
+        if ft.type in (FeatureType.ENV, FeatureType.VISUAL):
+            out[key] = ft
+    return out
+
+
+def env_options(agent: PolicyAgent, video: bool) -> dict:
+    """Environment options a policy needs: its control rate and its cameras at its image size."""
+    opts = {}
+    if agent.context.get("fps"):
+        opts["control_hz"] = float(agent.context["fps"])
+    cams = [k.removeprefix("observation.images.") for k in agent.inputs if k.startswith("observation.images.")]
+    if cams:
+        from envs.tasks import CAMERAS
+
+        bad = [c for c in cams if c not in CAMERAS]
+        if bad:
+            raise GloverecError(f"the policy reads observation.images.{bad[0]}, a camera the environments do not "
+                                f"have (they have {', '.join(CAMERAS)})")
+        shape = agent.inputs[f"observation.images.{cams[0]}"].shape
+        opts.update(cameras=tuple(cams), image_size=(int(shape[1]), int(shape[2])))
+    elif video:
+        opts["image_size"] = VIDEO_SIZE
+    return opts
+
+
+def check_features(agent: PolicyAgent, env, task: str, robot: str) -> None:
+    """One GloverecError line naming the first feature where the policy and the environment differ."""
+    u = env.unwrapped
+    where = f"{task} on {robot}"
+    spaces = env.observation_space.spaces
+    names = agent.context.get("names") or {}
+    env_names = {"observation.state": u.state_names, "observation.environment_state": u.environment_state_names,
+                 "action": u.action_names}
+    expected = {**agent.inputs, "action": agent.policy.config.action_feature}
+    for key, ft in expected.items():
+        if ft is None:
+            raise GloverecError(f"the policy in {agent.path} has no '{key}' output")
+        if key == "action":
+            have = tuple(env.action_space.shape)
+        elif key not in spaces:
+            raise GloverecError(f"feature {key} differs: the policy reads it but {where} does not observe it "
+                                f"(it observes {', '.join(sorted(spaces))})")
+        else:
+            have = tuple(spaces[key].shape)
+            if key.startswith("observation.images."):
+                have = (have[2], have[0], have[1])
+        want = tuple(ft.shape)
+        if want != have:
+            raise GloverecError(f"feature {key} differs: the policy expects shape {want}, {where} gives {have}")
+        mine, theirs = names.get(key), env_names.get(key)
+        if mine and theirs and list(mine) != list(theirs):
+            i = next(i for i, (a, b) in enumerate(zip(mine, theirs)) if a != b)
+            raise GloverecError(f"feature {key} differs: element {i} is {mine[i]!r} for the policy but {theirs[i]!r} "
+                                f"in {where} (trained on another robot or task?)")
+
+
+# ---------------------------------------------------------------- the harness
+
+def make_env(task: str, robot: str, **options):
+    import envs
+
+    try:
+        return envs.make(task, robot, **options)
+    except ValueError as exc:
+        raise GloverecError(str(exc)) from None
+
+
+def evaluate(agent, env, episodes: int, seed: int = EVAL_SEED, video_dir: str | Path | None = None,
+             videos: int = 2, progress: bool = False) -> dict:
+    """Run ``episodes`` episodes (seeds seed, seed+1, ...); videos of the first ``videos`` into ``video_dir``."""
+    from tqdm import tqdm
+
+    u = env.unwrapped
+    fps = float(u.config.control_hz)
+    runs, paths = [], []
+    t0 = time.perf_counter()
+    if video_dir is not None:
+        Path(video_dir).mkdir(parents=True, exist_ok=True)
+    for k in tqdm(range(episodes), desc="evaluating", unit="episode", disable=not progress, file=sys.stderr):
+        s = seed + k
+        obs, info = env.reset(seed=s)
+        agent.reset(env, s)
+        filming = video_dir is not None and k < videos
+        frames = [env.render()] if filming else None
+        ret, steps = 0.0, 0
+        while True:
+            obs, reward, terminated, truncated, info = env.step(agent.act(obs))
+            ret += reward
+            steps += 1
+            if filming:
+                frames.append(env.render())
+            if terminated or truncated:
+                break
+        ok = bool(info["is_success"])
+        runs.append({"seed": s, "success": ok, "return": round(ret, 4), "length": steps,
+                     **{key: info[key] for key in ("goal", "object") if key in info}})
+        if filming:
+            name = f"episode{k:03d}_seed{s}_{'success' if ok else 'failure'}.mp4"
+            paths.append(str(_write_video(Path(video_dir) / name, frames, fps)))
+    n = len(runs)
+    return {"agent": agent.name, "task": u.task_name, "robot": u.robot.config.name, "episodes": n,
+            "seeds": [seed, seed + n - 1] if n else [],
+            "success_rate": round(sum(r["success"] for r in runs) / n, 4) if n else 0.0,
+            "successes": sum(r["success"] for r in runs),
+            "mean_return": round(float(np.mean([r["return"] for r in runs])), 4) if n else 0.0,
+            "mean_length": round(float(np.mean([r["length"] for r in runs])), 2) if n else 0.0,
+            "episode_lengths": [r["length"] for r in runs], "videos": paths, "runs": runs,
+            "wall_s": round(time.perf_counter() - t0, 2)}
+
+
+def _write_video(path: Path, frames: list, fps: float) -> Path:
+    from lerobot.utils.io_utils import write_video
+
+    write_video(str(path), np.stack(frames), fps=fps)
+    return path
+
+
+def evaluate_checkpoint(path: str | Path, task: str | None, robot: str | None, episodes: int,
+                        seed: int = EVAL_SEED, video_dir=None, videos: int = 2, progress: bool = False) -> dict:
+    """Load a checkpoint, build the environment it needs, check the features, evaluate."""
+    agent = load_policy(path)
+    task = task or agent.context.get("task")
+    robot = robot or agent.context.get("robot")
+    if not task or not robot:
+        missing = " and ".join(f"--{n}" for n, v in (("task", task), ("robot", robot)) if not v)
+        raise GloverecError(f"the checkpoint does not say which task and robot it was trained on: pass {missing}")
+    env = make_env(task, robot, render_mode="rgb_array" if video_dir else None, **env_options(agent, bool(video_dir)))
+    try:
+        check_features(agent, env, task, robot)
+        _warn_seed_overlap(agent.context, seed, episodes)
+        out = evaluate(agent, env, episodes, seed, video_dir, videos, progress)
+    finally:
+        env.close()
+    return {"policy": str(agent.path), "policy_type": agent.type, **out}
+
+
+def _warn_seed_overlap(context: dict, seed: int, episodes: int) -> None:
+    root = (context.get("dataset") or {}).get("root")
+    if not root or not Path(root).exists():
+        return
+    from policies.data import sidecar
+
+    used = {e.get("seed") for e in sidecar(Path(root)).values()}
+    overlap = used & set(range(seed, seed + episodes))
+    if overlap:
+        print(f"warning: {len(overlap)} evaluation seed(s) are seeds of training episodes (e.g. {min(overlap)}): "
+              "pass another --seed to evaluate on unseen episodes", file=sys.stderr)

@@ -43,8 +43,8 @@ def test_recorded_dataset_loads_with_declared_shapes_fps_and_timestamps(pose_dat
         lo, hi = ds.meta.episodes[e]["dataset_from_index"], ds.meta.episodes[e]["dataset_to_index"]
         ts = np.array([float(ds[i]["timestamp"]) for i in range(lo, hi)])
         assert np.allclose(ts, np.arange(hi - lo) / 30, atol=1e-6)
-        host = np.array([float(ds[i]["time.host_s"]) for i in range(lo, hi)])
-        dev = np.array([float(ds[i]["time.device_s"]) for i in range(lo, hi)])
+        raw = ds.hf_dataset.with_format("numpy")[lo:hi]  # float64 as stored (lerobot's torch view is float32)
+        host, dev = np.asarray(raw["time.host_s"], np.float64), np.asarray(raw["time.device_s"], np.float64)
         assert np.all(np.diff(host) > 0) and np.allclose(np.diff(dev), 1 / 30, atol=1e-3)
     item = ds[0]
     assert item["observation.glove"].shape == (24,) and item["task"].startswith("make the ")

@@ -7,6 +7,7 @@ import sys
 import time
 
 import numpy as np
+import pyarrow.parquet as pq
 import pytest
 from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
@@ -39,12 +40,16 @@ def test_recorded_dataset_loads_with_declared_shapes_fps_and_timestamps(pose_dat
     assert ds.num_episodes == 3 == summary["total_episodes"] and ds.fps == 30
     assert ds.meta.features["observation.state"]["shape"] == (len(env.state_names),)
     assert ds.meta.features["action"]["names"] == list(env.action_names)
+    # the clocks as stored, float64 (LeRobotDataset[i] hands them out as float32 tensors)
+    times = pq.read_table(root / "data", columns=["episode_index", "index", "time.host_s", "time.device_s"])
+    times = {c: np.asarray(times[c].to_numpy()) for c in times.column_names}
+    order = np.argsort(times["index"])
+    times = {c: v[order] for c, v in times.items()}
     for e in range(3):
         lo, hi = ds.meta.episodes[e]["dataset_from_index"], ds.meta.episodes[e]["dataset_to_index"]
         ts = np.array([float(ds[i]["timestamp"]) for i in range(lo, hi)])
         assert np.allclose(ts, np.arange(hi - lo) / 30, atol=1e-6)
-        raw = ds.hf_dataset.with_format("numpy")[lo:hi]  # float64 as stored (lerobot's torch view is float32)
-        host, dev = np.asarray(raw["time.host_s"], np.float64), np.asarray(raw["time.device_s"], np.float64)
+        host, dev = (times[c][times["episode_index"] == e] for c in ("time.host_s", "time.device_s"))
         assert np.all(np.diff(host) > 0) and np.allclose(np.diff(dev), 1 / 30, atol=1e-3)
     item = ds[0]
     assert item["observation.glove"].shape == (24,) and item["task"].startswith("make the ")

@@ -81,8 +81,16 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--realtime-s", type=float, default=300.0)
+    ap.add_argument("--realtime-only", action="store_true", help="keep the fast figures of the last results file")
     args = ap.parse_args()
-    results = {"fast_state_only": fast(args.runs, []), "fast_one_camera_128": fast(args.runs, ["front"])}
+    if args.realtime_only:
+        import json
+
+        from _common import RESULTS
+        results = {k: v for k, v in json.loads((RESULTS / "record.json").read_text()).items()
+                   if k.startswith("fast_")}
+    else:
+        results = {"fast_state_only": fast(args.runs, []), "fast_one_camera_128": fast(args.runs, ["front"])}
     print(results)
     results["realtime_100hz"] = realtime(args.realtime_s)
     print(results["realtime_100hz"])

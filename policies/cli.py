@@ -1,8 +1,8 @@
 """`gloverec train`, `gloverec eval` and `gloverec replay`: flags here, the work in policies.train, .evaluate
 and .replay.
 
-``add_parsers(subparsers)`` adds the three commands to the `gloverec` subparsers (recorder/cli.py); each handler returns the
-exit code or raises GloverecError (one line, exit 1). With ``--json`` stdout carries exactly one JSON object
+``add_parsers(subparsers)`` adds the three commands to the `gloverec` subparsers (recorder/cli.py); each
+handler returns the exit code or raises GloverecError (one line, exit 1). With ``--json`` stdout carries exactly one JSON object
 (everything else, lerobot's chatter included, goes to stderr). Heavy modules load inside the handlers.
 """
 
@@ -135,7 +135,9 @@ def cmd_train(args: argparse.Namespace) -> int:
         print(json.dumps(summary))
     else:
         val = summary["final_val_loss"]
-        print(f"trained {summary['policy_type']} for {summary['steps']} steps on {summary['train_episodes']} episodes "
+        span = (f"from step {summary['start_step']} to {summary['steps']}" if summary["start_step"]
+                else f"for {summary['steps']} steps")
+        print(f"trained {summary['policy_type']} {span} on {summary['train_episodes']} episodes "
               f"of {ref.repo_id} in {summary['wall_s']:.0f} s: train loss {summary['final_train_loss']:.4f}, "
               f"validation loss {'-' if val is None else f'{val:.4f}'} ({summary['val_episodes']} held-out episodes)")
         print(f"policy: {summary['policy']}")

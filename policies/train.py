@@ -111,7 +111,6 @@ def train(ref: DatasetRef, out: str | Path, cfg: TrainConfig, policy: str = "bc"
     if not resume and out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise GloverecError(f"{out} already exists: pass --resume to continue its training, or choose another --out")
 
-    import torch
     from lerobot.configs.default import DatasetConfig
     from lerobot.configs.policies import PreTrainedConfig
     from lerobot.configs.train import TrainPipelineConfig
@@ -179,9 +178,38 @@ def train(ref: DatasetRef, out: str | Path, cfg: TrainConfig, policy: str = "bc"
     extras = _checkpoint_extras(ref, meta)
     n = len(train_cache)
     policy_obj.train()
-    running: list[float] = []
     bar = tqdm(range(start, cfg.steps), initial=start, total=cfg.steps, desc="training", unit="step",
                disable=not progress, file=sys.stderr)
+    try:
+        _loop(bar, train_cache, val_cache, pre, post, policy_obj, optimizer, scheduler, tcfg, cfg, val_every,
+              history, extras, out)
+    except KeyboardInterrupt:
+        bar.close()
+        kept = out / CHECKPOINTS_DIR / LAST_CHECKPOINT_LINK
+        where = f"last checkpoint: step {int(kept.resolve().name)}" if kept.exists() else "no checkpoint yet"
+        _say(f"interrupted at step {bar.n} ({where}); the same command with --resume continues from there")
+        raise
+    bar.close()
+
+    pretrained = (out / CHECKPOINTS_DIR / LAST_CHECKPOINT_LINK).resolve() / PRETRAINED_MODEL_DIR
+    final = history[-1] if history else {}
+    summary = {"out": str(out), "policy": str(pretrained), "policy_type": policy_obj.config.type,
+               "dataset": ref.as_dict(), "steps": cfg.steps, "start_step": start,
+               "batch_size": cfg.batch_size, "train_episodes": len(train_eps), "val_episodes": len(val_eps),
+               "train_frames": n, "val_frames": len(val_cache),
+               "final_train_loss": final.get("train_loss"), "final_val_loss": final.get("val_loss"),
+               "loss_curve": str(out / "loss_curve.png"), "wall_s": round(time.perf_counter() - t0, 1)}
+    (out / "train_summary.json").write_text(json.dumps(summary, indent=1))
+    return summary
+
+
+def _loop(bar, train_cache, val_cache, pre, post, policy_obj, optimizer, scheduler, tcfg, cfg, val_every,
+          history, extras, out) -> None:
+    """The training steps from the bar's position to cfg.steps: validation, history and checkpoints."""
+    import torch
+
+    n = len(train_cache)
+    running: list[float] = []
     for step in bar:
         batch = pre(train_cache.batch(torch.randint(n, (cfg.batch_size,))))
         loss, _ = policy_obj.forward(batch)
@@ -202,18 +230,6 @@ def train(ref: DatasetRef, out: str | Path, cfg: TrainConfig, policy: str = "bc"
                             val="-" if val is None else f"{val:.4f}")
         if done % tcfg.save_freq == 0 or done == cfg.steps:
             _save(out, done, tcfg, policy_obj, optimizer, scheduler, pre, post, history, extras)
-    bar.close()
-
-    pretrained = (out / CHECKPOINTS_DIR / LAST_CHECKPOINT_LINK).resolve() / PRETRAINED_MODEL_DIR
-    final = history[-1] if history else {}
-    summary = {"out": str(out), "policy": str(pretrained), "policy_type": policy_obj.config.type,
-               "dataset": ref.as_dict(), "steps": cfg.steps, "start_step": start,
-               "batch_size": cfg.batch_size, "train_episodes": len(train_eps), "val_episodes": len(val_eps),
-               "train_frames": n, "val_frames": len(val_cache),
-               "final_train_loss": final.get("train_loss"), "final_val_loss": final.get("val_loss"),
-               "loss_curve": str(out / "loss_curve.png"), "wall_s": round(time.perf_counter() - t0, 1)}
-    (out / "train_summary.json").write_text(json.dumps(summary, indent=1))
-    return summary
 
 
 def _validation_loss(policy, pre, cache: FrameCache, batch_size: int) -> float | None:

@@ -14,38 +14,9 @@ import json
 import sys
 
 from recorder import GloverecError
+from recorder.argtypes import natural, positive_float, positive_int
 
 HUB_HELP = "the local hub folder (default: $GLOVEREC_HUB, else datasets/hub)"
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"must be positive: {text!r}")
-    return value
-
-
-def _natural(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be zero or more: {text!r}")
-    return value
-
-
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be positive: {text!r}")
-    return value
 
 
 def _dataset_flags(p: argparse.ArgumentParser) -> None:
@@ -61,17 +32,17 @@ def add_parsers(subparsers) -> None:
     _dataset_flags(t)
     t.add_argument("--policy", choices=("bc",), default="bc", help="the policy to train (default bc)")
     t.add_argument("--out", required=True, help="output folder: checkpoints, loss curve, split, summary")
-    t.add_argument("--steps", type=_positive_int, help="training steps (default: configs/train/bc.yaml)")
+    t.add_argument("--steps", type=positive_int, help="training steps (default: configs/train/bc.yaml)")
     t.add_argument("--resume", action="store_true", help="continue from OUT/checkpoints/last")
-    t.add_argument("--batch-size", type=_positive_int)
-    t.add_argument("--lr", type=_positive_float, help="peak learning rate")
+    t.add_argument("--batch-size", type=positive_int)
+    t.add_argument("--lr", type=positive_float, help="peak learning rate")
     t.add_argument("--seed", type=int, help="initialisation, split and batch order")
-    t.add_argument("--save-every", type=_positive_int, help="a checkpoint every N steps (default 1000), and at the end")
+    t.add_argument("--save-every", type=positive_int, help="a checkpoint every N steps (default 1000), and at the end")
     t.add_argument("--val-fraction", type=float, help="share of episodes held out for validation (default 0.1)")
     t.add_argument("--all-episodes", action="store_true",
                    help="train on failed demonstrations too (default: only those marked successful)")
     t.add_argument("--config", help="a train YAML (default: configs/train/<policy>.yaml)")
-    t.add_argument("--threads", type=_positive_int, default=1,
+    t.add_argument("--threads", type=positive_int, default=1,
                    help="torch CPU threads (default 1: fastest for small MLPs, and safe on a busy machine)")
     t.add_argument("--json", action="store_true", help="print one JSON object at the end")
     t.set_defaults(func=cmd_train)
@@ -82,18 +53,18 @@ def add_parsers(subparsers) -> None:
                         "or 'demonstrator' / 'random' for the scripted demonstrator / random actions")
     e.add_argument("--task", help="pose or grasp (default: the policy's training task)")
     e.add_argument("--robot", help="glovehand or shadow (default: the policy's training robot)")
-    e.add_argument("--episodes", type=_positive_int, default=50, help="episodes (default 50)")
-    e.add_argument("--seed", type=_natural, help="seed of the first episode, then +1 each (default 100000, "
+    e.add_argument("--episodes", type=positive_int, default=50, help="episodes (default 50)")
+    e.add_argument("--seed", type=natural, help="seed of the first episode, then +1 each (default 100000, "
                                                  "away from the recorder's seeds 0, 1, ...)")
     e.add_argument("--video", metavar="DIR", help="write videos of the first episodes here (mp4)")
-    e.add_argument("--videos", type=_natural, default=2, help="how many episodes to film (default 2)")
-    e.add_argument("--threads", type=_positive_int, default=1, help="torch CPU threads (default 1)")
+    e.add_argument("--videos", type=natural, default=2, help="how many episodes to film (default 2)")
+    e.add_argument("--threads", type=positive_int, default=1, help="torch CPU threads (default 1)")
     e.add_argument("--json", action="store_true", help="print one JSON object (success_rate, episodes, ...)")
     e.set_defaults(func=cmd_eval)
 
     r = subparsers.add_parser("replay", help="replay an episode's actions open loop and measure state divergence")
     _dataset_flags(r)
-    r.add_argument("--episode", type=_natural, required=True, help="episode index")
+    r.add_argument("--episode", type=natural, required=True, help="episode index")
     r.add_argument("--video", metavar="FILE", help="write a video of the replay (mp4)")
     r.add_argument("--json", action="store_true", help="print one JSON object")
     r.set_defaults(func=cmd_replay)

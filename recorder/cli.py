@@ -12,20 +12,9 @@ import signal
 import sys
 
 from recorder import GloverecError, __version__
+from recorder.argtypes import positive_float, positive_int
 
 PORT_HELP = "glove port: a serial device (serial:PORT or a path), udp:PORT, udp:HOST:PORT or mcap:FILE"
-
-
-def _positive(kind):
-    def parse(text):
-        try:
-            value = kind(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-        if value <= 0:
-            raise argparse.ArgumentTypeError(f"must be positive: {text!r}")
-        return value
-    return parse
 
 
 def _hostport(text: str) -> tuple[str, int]:
@@ -46,10 +35,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=_Parser)
 
     e = sub.add_parser("emulate", help="serve a synthetic glove on a pseudo-terminal")
-    e.add_argument("--rate", type=_positive(float), default=200.0, help="frames per second (default 200)")
+    e.add_argument("--rate", type=positive_float, default=200.0, help="frames per second (default 200)")
     e.add_argument("--mode", choices=("raw", "pose", "json", "compact"), default="pose")
     e.add_argument("--motion", choices=("gestures", "random"), default="gestures")
-    e.add_argument("--duration", type=_positive(float), help="seconds to stream (default: until killed)")
+    e.add_argument("--duration", type=positive_float, help="seconds to stream (default: until killed)")
     e.add_argument("--seed", type=int, default=0)
     e.add_argument("--link", help="also expose the port as this stable symlink (as udev does for real gloves)")
     e.add_argument("--firmware", action="store_true", help="run the compiled glove core (firmware/) on the "
@@ -60,26 +49,26 @@ def build_parser() -> argparse.ArgumentParser:
 
     m = sub.add_parser("monitor", help="live rate, errors and latency of a glove")
     m.add_argument("--port", required=True, help=PORT_HELP)
-    m.add_argument("--duration", type=_positive(float), help="seconds (default: until Ctrl-C)")
+    m.add_argument("--duration", type=positive_float, help="seconds (default: until Ctrl-C)")
     m.add_argument("--json", action="store_true", help="print one JSON object at the end")
     m.add_argument("--protocol", choices=("auto", "binary", "json"), default="auto")
-    m.add_argument("--baud", type=_positive(int), default=115200)
+    m.add_argument("--baud", type=positive_int, default=115200)
     m.add_argument("--fast", action="store_true", help="play an mcap:FILE back as fast as it decodes")
     m.set_defaults(func=cmd_monitor)
 
     lg = sub.add_parser("log", help="record a glove session to an MCAP file")
     lg.add_argument("--port", required=True, help=PORT_HELP)
     lg.add_argument("--out", required=True, help="output .mcap file")
-    lg.add_argument("--duration", type=_positive(float), help="seconds (default: until Ctrl-C)")
+    lg.add_argument("--duration", type=positive_float, help="seconds (default: until Ctrl-C)")
     lg.add_argument("--json", action="store_true", help="print the link statistics as JSON at the end")
-    lg.add_argument("--baud", type=_positive(int), default=115200)
+    lg.add_argument("--baud", type=positive_int, default=115200)
     lg.set_defaults(func=cmd_log)
 
     b = sub.add_parser("bridge", help="forward a serial glove's frames to UDP, one frame per datagram")
     b.add_argument("--port", required=True, help=PORT_HELP)
     b.add_argument("--udp", required=True, type=_hostport, metavar="HOST:PORT")
-    b.add_argument("--duration", type=_positive(float), help="seconds (default: until Ctrl-C)")
-    b.add_argument("--baud", type=_positive(int), default=115200)
+    b.add_argument("--duration", type=positive_float, help="seconds (default: until Ctrl-C)")
+    b.add_argument("--baud", type=positive_int, default=115200)
     b.set_defaults(func=cmd_bridge)
 
     from envs import view

@@ -25,9 +25,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from recorder import GloverecError
+from recorder.settings import load_values
 from policies.data import DatasetRef, FrameCache, load_meta, sidecar, split_episodes, video_backend
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs" / "train"
@@ -51,20 +51,7 @@ class TrainConfig:
     @classmethod
     def load(cls, path: str | Path | None = None, policy: str = "bc", **overrides) -> "TrainConfig":
         source = Path(path) if path else CONFIGS / f"{policy}.yaml"
-        values = {}
-        if source.is_file():
-            try:
-                values = yaml.safe_load(source.read_text()) or {}
-            except yaml.YAMLError as exc:
-                raise GloverecError(f"{source}: not valid YAML ({str(exc).splitlines()[0]})") from None
-            if not isinstance(values, dict):
-                raise GloverecError(f"{source}: expected a mapping of train settings")
-        elif path:
-            raise GloverecError(f"no such config file: {path}")
-        values.update({k: v for k, v in overrides.items() if v is not None})
-        unknown = sorted(set(values) - {f.name for f in dataclasses.fields(cls)})
-        if unknown:
-            raise GloverecError(f"{source}: unknown setting(s) {', '.join(unknown)}")
+        values = load_values(cls, source, bool(path), overrides, "train")
         cfg = cls(**values)
         for name in ("steps", "batch_size"):
             if not isinstance(getattr(cfg, name), int) or getattr(cfg, name) <= 0:

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import dataclasses
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import yaml
 
 from recorder import GloverecError
+from recorder.settings import load_values
 
 DEFAULTS = Path(__file__).resolve().parents[2] / "configs" / "record" / "default.yaml"
 REPO_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*/[A-Za-z0-9][A-Za-z0-9._-]*$")
@@ -40,22 +39,8 @@ class RecordConfig:
     @classmethod
     def load(cls, path: str | Path | None = None, **overrides) -> "RecordConfig":
         """Defaults, then the YAML file (configs/record/default.yaml unless ``path``), then ``overrides``."""
-        values = {}
         source = Path(path) if path else DEFAULTS
-        if source.exists():
-            try:
-                values = yaml.safe_load(source.read_text()) or {}
-            except yaml.YAMLError as exc:
-                raise GloverecError(f"{source}: not valid YAML ({str(exc).splitlines()[0]})") from None
-            if not isinstance(values, dict):
-                raise GloverecError(f"{source}: expected a mapping of record settings")
-        elif path:
-            raise GloverecError(f"no such config file: {path}")
-        values.update({k: v for k, v in overrides.items() if v is not None})
-        names = {f.name for f in dataclasses.fields(cls)}
-        unknown = sorted(set(values) - names)
-        if unknown:
-            raise GloverecError(f"{source}: unknown setting(s) {', '.join(unknown)}")
+        values = load_values(cls, source, bool(path), overrides, "record")
         cfg = cls(**values)
         cfg.validate()
         return cfg

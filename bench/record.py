@@ -4,8 +4,10 @@ keeps time at real time.
     .venv/bin/python bench/record.py [--runs 3] [--realtime-s 300]
 
 Fast: the scripted demonstrator drives the emulated glove through the pty, fusion-free pose frames, HandPose
-on glovehand; frames/s = dataset frames / session wall time (startup excluded), median of --runs sessions,
-state-only and with one 128x128 camera (goals: >= 1000 and >= 60 frames/s).
+on glovehand, 30 fps; frames/s = dataset frames / session wall time (startup excluded), median of --runs
+sessions, state-only and with one 128x128 camera (goals: >= 1000 and >= 60 frames/s). Measured in the same run:
+the baseline (each episode saved in the loop by lerobot's own save_episode, as before the writer process) and
+the loop alone (nothing saved: the ceiling that the physics, rendering and the emulated glove set).
 Real time: a separate `gloverec emulate` process is the glove (200 Hz, as a USB glove would be); the loop
 records at 100 fps for --realtime-s seconds of episodes: glove frames dropped (goal 0), tick jitter p99
 (goal <= 2 ms), glove sample -> action latency p99 (goal <= 10 ms).
@@ -20,6 +22,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -33,6 +36,9 @@ from recorder.record.recorder import Recorder  # noqa: E402
 from recorder.record.store import read_sidecar  # noqa: E402
 
 
+VARIANTS = ("gloverec", "lerobot_save_in_loop", "loop_only")
+
+
 def session(tmp: str, **cfg) -> tuple[float, int, list[dict]]:
     rec = Recorder(RecordConfig.load(root=f"{tmp}/ds{time.monotonic_ns()}", repo_id="bench/record", **cfg),
                    out=None)
@@ -42,15 +48,57 @@ def session(tmp: str, **cfg) -> tuple[float, int, list[dict]]:
     return wall, summary["total_frames"], read_sidecar(summary["root"])
 
 
-def fast(runs: int, cameras: list) -> dict:
-    rates = []
+class _InLoop:
+    """Stands in for the writer process: saves each episode in the recording loop (``keep=False``: drops it)."""
+
+    def __init__(self, store, keep: bool = True):
+        self.store, self.keep, self.done = store, keep, []
+
+    def submit(self, episode, sidecar):
+        self.done.append((self.store.save_episode(sidecar, episode) if self.keep else -1, sidecar))
+
+    def results(self, wait=False):
+        out, self.done = self.done, []
+        return out
+
+    def close(self):
+        return self.results()
+
+
+@contextmanager
+def variant(name: str):
+    """``gloverec``: as shipped. ``lerobot_save_in_loop``: the baseline, how recording saved before (and how
+    lerobot-record saves): each episode by lerobot's own save_episode (histogram stats, embed_images,
+    fingerprint), in the loop. ``loop_only``: nothing saved, the loop's own ceiling."""
+    import recorder.record.recorder as rec_mod
+    import recorder.record.store as store_mod
+
+    saved = rec_mod.EpisodeWriter, store_mod.lerobot_save_speedups
+    if name == "lerobot_save_in_loop":
+        rec_mod.EpisodeWriter, store_mod.lerobot_save_speedups = _InLoop, lambda features: nullcontext()
+    elif name == "loop_only":
+        rec_mod.EpisodeWriter = lambda store: _InLoop(store, keep=False)
+    try:
+        yield
+    finally:
+        rec_mod.EpisodeWriter, store_mod.lerobot_save_speedups = saved
+
+
+def fast(runs: int, cameras: list, episodes: int = 10) -> dict:
+    """Frames/s of each variant; runs interleaved (A, B, C, A, B, C, ...) so that drift hits all alike."""
+    rates = {name: [] for name in VARIANTS}
     with tempfile.TemporaryDirectory() as tmp:
         for _ in range(runs):
-            wall, frames, _ = session(tmp, episodes=10, cameras=cameras, realtime=False, log=False)
-            rates.append(frames / wall)
-    return {"cameras": cameras, "episodes": 10, "frames_per_s": {
-        "median": round(statistics.median(rates), 1), "min": round(min(rates), 1), "max": round(max(rates), 1),
-        "runs": runs}}
+            for name in VARIANTS:
+                with variant(name):
+                    wall, frames, _ = session(tmp, episodes=episodes, cameras=cameras, realtime=False, log=False)
+                rates[name].append(frames / wall)
+    out = {"cameras": cameras, "episodes": episodes, "runs": runs}
+    for name, r in rates.items():
+        out[name] = {"median": round(statistics.median(r), 1), "min": round(min(r), 1), "max": round(max(r), 1)}
+    out["frames_per_s"] = out["gloverec"]
+    out["speedup_vs_baseline"] = round(out["gloverec"]["median"] / out["lerobot_save_in_loop"]["median"], 2)
+    return out
 
 
 def realtime(seconds: float, fps: int = 100) -> dict:
@@ -81,18 +129,21 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--realtime-s", type=float, default=300.0)
+    ap.add_argument("--episodes", type=int, default=10, help="episodes per fast session")
     ap.add_argument("--realtime-only", action="store_true", help="keep the fast figures of the last results file")
+    ap.add_argument("--fast-only", action="store_true", help="keep the real-time figures of the last results file")
     args = ap.parse_args()
-    if args.realtime_only:
-        import json
+    import json
 
-        from _common import RESULTS
-        results = {k: v for k, v in json.loads((RESULTS / "record.json").read_text()).items()
-                   if k.startswith("fast_")}
+    from _common import RESULTS
+    last = json.loads((RESULTS / "record.json").read_text()) if (RESULTS / "record.json").exists() else {}
+    if args.realtime_only:
+        results = {k: v for k, v in last.items() if k.startswith("fast_")}
     else:
-        results = {"fast_state_only": fast(args.runs, []), "fast_one_camera_128": fast(args.runs, ["front"])}
+        results = {"fast_state_only": fast(args.runs, [], args.episodes),
+                   "fast_one_camera_128": fast(args.runs, ["front"], args.episodes)}
     print(results)
-    results["realtime_100hz"] = realtime(args.realtime_s)
+    results["realtime_100hz"] = last["realtime_100hz"] if args.fast_only else realtime(args.realtime_s)
     print(results["realtime_100hz"])
     rt = results["realtime_100hz"]
     results["goals"] = {

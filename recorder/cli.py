@@ -71,6 +71,22 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--baud", type=positive_int, default=115200)
     b.set_defaults(func=cmd_bridge)
 
+    c = sub.add_parser("calibrate", help="walk through the calibration steps and save the glove's calibration")
+    c.add_argument("--glove", required=True, help="emulator (the emulated wearer runs the steps), serial:PORT, "
+                   "a device path, udp:PORT or mcap:FILE (a log of the steps)")
+    c.add_argument("--glove-id", type=_glove_id, help="hex id to save under (default: the glove's status frame)")
+    c.add_argument("--dir", help="where calibrations live (default: $GLOVEREC_CALIBRATION_DIR, else "
+                   "datasets/calibration)")
+    c.add_argument("--config", help="fusion config (default configs/fusion/default.yaml)")
+    c.add_argument("--yes", action="store_true", help="do not wait for Enter: each step follows the last "
+                   "(the default when stdin is not a terminal, and for the emulator)")
+    c.add_argument("--attempts", type=positive_int, default=3, help="recordings of step 1 before giving up "
+                   "when the hand moves (default 3)")
+    c.add_argument("--realtime", action="store_true", help="pace the emulator in real time (default: as fast "
+                   "as it is read)")
+    c.add_argument("--json", action="store_true", help="print a JSON summary instead of the table")
+    c.set_defaults(func=cmd_calibrate)
+
     from envs import view
     from policies import cli as policies_cli
     from recorder.hub import cli as hub_cli
@@ -127,6 +143,26 @@ def cmd_emulate(args) -> int:
             print(f"ground truth of {emu.save_truth(args.truth)} frames in {args.truth}", file=sys.stderr)
         print(f"sent {emu.sent_frames} frames, dropped {emu.dropped_frames} behind a slow reader, "
               f"{emu.unread_frames} with no reader", file=sys.stderr)
+    return 0
+
+
+def _glove_id(text: str) -> int:
+    try:
+        value = int(text, 16)
+    except ValueError:
+        value = -1
+    if not 0 < value < 1 << 32:
+        raise argparse.ArgumentTypeError(f"expected a glove id in hex (1 to ffffffff), got {text!r}")
+    return value
+
+
+def cmd_calibrate(args) -> int:
+    from recorder.fusion.procedure import Calibrator, report, summary
+
+    result = Calibrator(args.glove, glove_id=args.glove_id, folder=args.dir, config=args.config,
+                        interactive=False if args.yes else None, attempts=args.attempts,
+                        realtime=args.realtime).run()
+    print(json.dumps(summary(result)) if args.json else report(result))
     return 0
 
 

@@ -47,17 +47,22 @@ MAX_PENDING = 16 * 1024    # bytes held back while the reader is slow; beyond th
 
 class Emulator:
     def __init__(self, rate_hz: float = 200.0, mode: str = "pose", motion="gestures", seed: int = 0,
-                 link: str | None = None, keep_truth: bool = False, firmware: bool = False):
+                 link: str | None = None, keep_truth: bool = False, firmware: bool = False,
+                 glove_id: int = GLOVE_ID):
         """``motion``: a Motion kind or a Motion-like object. ``firmware``: run the compiled glove core
         (firmware/lib/glove_core) on the synthetic IMU readings instead of encoding frames here: the bytes on
-        the pty are then exactly what the real glove's code sends (firmware in the loop)."""
+        the pty are then exactly what the real glove's code sends (firmware in the loop). ``glove_id``: what
+        the status frames say; it also seeds the IMUs' own errors (turn-on gyro bias, accelerometer offsets),
+        so one emulated glove keeps its errors across sessions and seeds, as hardware does, and a calibration
+        saved for it (`gloverec calibrate --glove emulator`) holds for every recording with it."""
         self.sense_hz = float(rate_hz)   # synthesis ("sensing") rate, fixed
         self.output_hz = float(rate_hz)  # frame rate; SET_RATE lowers it (at most the sensing rate)
         self.mode = Mode[mode.upper()]
         self.core = None
         if firmware:
             motion = self._start_core(motion, seed, mode)
-        self.glove = SyntheticGlove(motion=motion, rate_hz=self.sense_hz, seed=seed)
+        self.glove_id = int(glove_id)
+        self.glove = SyntheticGlove(motion=motion, rate_hz=self.sense_hz, seed=seed, unit_seed=self.glove_id)
         self.link = link
         self.seq = 0
         self.sent_frames = 0
@@ -69,9 +74,13 @@ class Emulator:
         self._commands = StreamDecoder("binary", sequenced=False)
         self._lock = threading.Lock()
         self._stop = threading.Event()
+        self._thread: threading.Thread | None = None  # start(): run in the background
         self.truth_rows: list | None = [] if keep_truth else None  # ground truth per frame sent
         self.realtime = True
         self.horizon_s = 0.0      # session time up to which motion has been synthesised (fixed from then on)
+        self.t0_us = None
+        self.lead_s = None        # faster than real time: synthesise no block that starts after this session
+        self._lead = threading.Condition()  # time (None: no limit); a reader raises it with allow()
         self._buttons: list[float] = []
         self._requests: list[str] = []
         self._t_us = time.monotonic_ns() // 1000
@@ -153,6 +162,7 @@ class Emulator:
         period = 1.0 / self.sense_hz
         start = time.monotonic()
         t0_us = time.monotonic_ns() // 1000
+        self.t0_us = t0_us & 0xFFFFFFFF   # device clock at session time 0 (faster than real time)
         next_status = next_out = 0.0
         k = 0
         block, i = None, 0
@@ -172,6 +182,8 @@ class Emulator:
             else:
                 self._t_us = t0_us + round(t * 1e6)
             if block is None or i == len(block.t):
+                if not realtime and not self._wait_for_lead(t):
+                    break
                 block_s = BLOCK_S if realtime else FAST_BLOCK_S
                 block, i = self.glove.next_block(max(1, int(block_s * self.sense_hz))), 0
                 self.horizon_s = float(block.t[-1]) + period
@@ -193,6 +205,21 @@ class Emulator:
                         batch.clear()
             i += 1
             k += 1
+
+    def allow(self, t_s: float) -> None:
+        """Faster than real time: let the synthesis run up to session time ``t_s`` (see ``lead_s``)."""
+        with self._lead:
+            if self.lead_s is not None and t_s > self.lead_s:
+                self.lead_s = t_s
+                self._lead.notify_all()
+
+    def _wait_for_lead(self, t: float) -> bool:
+        """Bulk generation paced by its reader: nothing is synthesised (and thrown away) far ahead of the
+        frames the reader needs. False when stopped while waiting."""
+        with self._lead:
+            while self.lead_s is not None and t > self.lead_s and not self._stop.is_set():
+                self._lead.wait(0.1)
+        return not self._stop.is_set()
 
     def _firmware_cycle(self, block, i: int) -> None:
         """One sensing cycle of the compiled core: readings in, its frames out, host commands through."""
@@ -265,7 +292,7 @@ class Emulator:
             return b""
         return encode_frame(StatusFrame(
             self._next_seq(), self._now_us(), FIRMWARE, self.mode, int(self.sense_hz), int(self.output_hz),
-            CalibState.DONE, 100, CLOCK_HOST_MONOTONIC if self.realtime else 0, GLOVE_ID,
+            CalibState.DONE, 100, CLOCK_HOST_MONOTONIC if self.realtime else 0, self.glove_id,
             (1 << N_IMUS) - 1, MUX_MAP, JOINT_MAP))
 
     def _write(self, data: bytes) -> None:
@@ -276,7 +303,8 @@ class Emulator:
             if not self.realtime:
                 self._write_all(data)
                 return
-            if self._poll.poll(0)[0][1] & select.POLLHUP:  # no reader has the port open: bytes go nowhere
+            events = self._poll.poll(0)  # none: the reader's buffer is full (the write below goes to pending)
+            if events and events[0][1] & select.POLLHUP:  # no reader has the port open: bytes go nowhere
                 self._pending = b""
                 self.unread_frames += 1
                 return
@@ -338,8 +366,18 @@ class Emulator:
         else:
             self._write(self._event(EventCode.BUTTON))
 
+    def start(self, duration: float | None = None, realtime: bool = True) -> None:
+        """``run`` in a background thread (an in-process glove: the recorder, `gloverec calibrate`);
+        ``close`` stops and joins it."""
+        self._thread = threading.Thread(target=self.run, args=(duration,), kwargs={"realtime": realtime},
+                                        name="gloverec-emulator", daemon=True)
+        self._thread.start()
+
     def close(self) -> None:
         self.stop()
+        if self._thread is not None:
+            self._thread.join(timeout=2.0)
+            self._thread = None
         if self.plugged:
             self.unplug()
         if self.core is not None:

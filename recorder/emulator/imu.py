@@ -67,10 +67,14 @@ class ImuArray:
     """The 12 IMUs, with seeded per-IMU errors. Call ``sample`` with consecutive blocks of a trajectory."""
 
     def __init__(self, rate_hz: float, seed: int = 0, accel_fs_g: int = 16, gyro_fs_dps: int = 2000,
-                 noise: bool = True, bias: bool = True, mount_offsets=None, misalign_deg: float = 0.0):
+                 noise: bool = True, bias: bool = True, mount_offsets=None, misalign_deg: float = 0.0,
+                 unit_seed: int | None = None):
         """mount_offsets (12, 3) m: IMU position in its segment frame (default 0). noise: white noise on
         gyro, accelerometer and temperature. bias: gyro bias (turn-on + temperature drift) and accelerometer
-        offset. misalign_deg: RMS angle of a fixed random mounting rotation per IMU (default none)."""
+        offset. misalign_deg: RMS angle of a fixed random mounting rotation per IMU (default none).
+        unit_seed: draw the IMUs' own errors (biases, offsets, thermal behaviour, misalignment) from this seed
+        and only the noise from ``seed``: the same physical glove in every session (the emulator seeds it with
+        its glove id). None: both from ``seed``."""
         if accel_fs_g not in ACCEL_FS_G:
             raise ValueError(f"accel_fs_g must be one of {ACCEL_FS_G}")
         if gyro_fs_dps not in GYRO_FS_DPS:
@@ -81,7 +85,7 @@ class ImuArray:
         self.gyro_fs_dps = gyro_fs_dps
         self.noise = noise
         self._rng = np.random.default_rng([seed, 0x696D75])
-        rng = self._rng
+        rng = self._rng if unit_seed is None else np.random.default_rng([unit_seed, 0x756E6974])
         on = 1.0 if bias else 0.0
         self.gyro_bias0 = on * np.radians(rng.uniform(-GYRO_BIAS_DPS, GYRO_BIAS_DPS, (N_IMUS, 3)))
         self.gyro_tempco = on * np.radians(rng.uniform(-GYRO_TEMPCO_DPS_C, GYRO_TEMPCO_DPS_C, (N_IMUS, 3)))

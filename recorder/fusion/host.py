@@ -135,6 +135,14 @@ class HostFusion:
         self.started = np.zeros(N_IMUS, bool)
         self.last_t = np.zeros(N_IMUS, np.int64)
         self.last_quats = joints.constrained_relative(np.zeros(N_JOINTS))  # pose frames: the last good one
+        self.rest_angles = None  # the pose (20,) rad the hand holds at start and reset; None: the calibration's
+
+    @property
+    def reference_angles(self) -> np.ndarray:
+        """The joint angles the hand holds when the reference pose is taken (``start``, ``reset``): the
+        calibration's reference pose unless ``rest_angles`` says otherwise (an emulated wearer that rests in
+        another pose)."""
+        return self.calibration.reference_angles if self.rest_angles is None else np.asarray(self.rest_angles)
 
     # ------------------------------------------------------------------ calibration and reference pose
     def calibrate(self, still, flex=None, tilt=None, glove_id: int | None = None) -> cal.GloveCalibration:
@@ -186,7 +194,7 @@ class HostFusion:
     def reset(self) -> None:
         """The reference pose, now (the reset button or a key): per-IMU heading corrections C such that the
         hand model is in its reference pose with the palm's heading 0 (eq. 3.21, headings only)."""
-        self.C = cal.reference(self.filter.q, self.calibration.mounts, self.calibration.reference_angles)
+        self.C = cal.reference(self.filter.q, self.calibration.mounts, self.reference_angles)
         self.heading[:] = 0.0
 
     # ------------------------------------------------------------------ frames
@@ -288,8 +296,7 @@ class HostFusion:
             self.filter.reset(accel, new)
             self.started |= new
             self.last_t[new] = t_us
-            self.C[new] = cal.reference(self.filter.q, self.calibration.mounts,
-                                        self.calibration.reference_angles)[new]
+            self.C[new] = cal.reference(self.filter.q, self.calibration.mounts, self.reference_angles)[new]
             fuse = fuse & ~new
         dt = ((t_us - self.last_t) & 0xFFFFFFFF) * 1e-6
         dt = np.clip(dt, 0.0, c.max_dt_s)

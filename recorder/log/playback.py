@@ -208,6 +208,19 @@ class LogInfo:
         return self.metadata.get("gloverec.glove", {})
 
 
+def log_calibration(path: str) -> dict | None:
+    """The fusion record a log was recorded with (its session metadata's ``calibration``, see
+    recorder/fusion/session.py), None when it has none ("{}": a glove that fused on board, or an older log)."""
+    text = read_log(path).session.get("calibration", "{}")
+    try:
+        record = json.loads(text)
+    except ValueError:
+        raise GloverecError(f"{path}: its calibration metadata is not JSON") from None
+    if not isinstance(record, dict):
+        raise GloverecError(f"{path}: its calibration metadata is not a JSON object")
+    return record or None
+
+
 def read_log(path: str) -> LogInfo:
     """Summarise a log: from its summary section when the file is complete, else by reading it through."""
     info = _read_summary(str(path))

@@ -162,14 +162,19 @@ class McapLogger:
     """Writes a glove session to ``path``. Use as a GloveSource tap: ``source.taps.append(logger)``.
 
     ``metadata`` adds (or overrides) keys of the "gloverec.session" metadata record; ``source`` there is the
-    glove source spec. ``boundary`` says each chunk was a whole datagram (UDP), so playback feeds it the same
-    way; by default it is True when ``metadata["source"]`` starts with "udp:". Thread-safe. A write error in
+    glove source spec. ``calibration``: the session's fusion record (recorder/fusion/session.py fusion_record:
+    glove id, calibration, fusion config), stored as the JSON string ``calibration`` of that record; when it is
+    known only later (a real glove's id comes with its first frames), ``set_calibration`` writes it then, as a
+    second "gloverec.session" record holding just that key (readers merge records of a name in file order).
+    ``boundary`` says each chunk was a whole datagram (UDP), so playback feeds it the same way; by default it is
+    True when ``metadata["source"]`` starts with "udp:". Thread-safe. A write error in
     the reader thread stops logging and is kept in ``error``; ``mark()`` and ``close()`` then raise it.
     """
 
     def __init__(self, path: str, metadata: dict | None = None, *, boundary: bool | None = None,
-                 chunk_size: int = CHUNK_SIZE, max_chunk_s: float = MAX_CHUNK_S):
+                 chunk_size: int = CHUNK_SIZE, max_chunk_s: float = MAX_CHUNK_S, calibration: dict | None = None):
         self.path = str(path)
+        self._calibration = "{}" if calibration is None else _calibration_json(calibration)
         self.max_chunk_s = max_chunk_s
         self.error: GloverecError | None = None
         self._lock = threading.RLock()
@@ -204,7 +209,7 @@ class McapLogger:
             "gloverec_version": __version__, "host": socket.gethostname(), "python": platform.python_version(),
             "source": "", "start_time": iso_utc(wall_ns), "start_time_ns": wall_ns, "start_monotonic_ns": mono_ns,
             "log_time_offset_ns": self.log_time_offset_ns, "boundary": boundary,
-            "calibration": "{}",  # placeholder: host-side fusion and its calibration land later
+            "calibration": self._calibration,  # "{}": not known when the log opened (set_calibration)
         } | meta
         self._writer.add_metadata(SESSION_METADATA, _str_values(session))
         self._bytes = self._writer.register_channel(BYTES_TOPIC, BYTES_ENCODING, 0, {
@@ -235,6 +240,22 @@ class McapLogger:
                 self._maybe_flush()
             except (OSError, ValueError) as exc:  # disk full, file closed under us...
                 self.error = self._write_error(exc)
+
+    def set_calibration(self, calibration: dict) -> None:
+        """Store the session's fusion record (see the class) if it differs from the one stored."""
+        text = _calibration_json(calibration)
+        with self._lock:
+            if text == self._calibration:
+                return
+            self._check()
+            try:
+                self._writer.add_metadata(SESSION_METADATA, {"calibration": text})
+                self._file.flush()
+                self._written = self._file.tell()
+            except (OSError, ValueError) as exc:
+                self.error = self._write_error(exc)
+                raise self.error from None
+            self._calibration = text
 
     def mark(self, name: str, /, *, at_ns: int | None = None, **fields) -> None:
         """Write a mark (episode start/end...) on /gloverec/marks and flush it to the OS at once.
@@ -336,6 +357,10 @@ def _close_quietly(f) -> None:
         f.close()
     except OSError:  # the buffered tail could not be written either; the error is already reported
         pass
+
+
+def _calibration_json(calibration: dict) -> str:
+    return json.dumps(calibration, separators=(",", ":"), default=_jsonable)
 
 
 def _str_values(d: dict) -> dict[str, str]:

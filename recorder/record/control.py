@@ -1,9 +1,10 @@
 """Episode control from the keyboard, over SSH and headless: the keys lerobot-record uses, read from stdin.
 
 On a terminal, stdin is put in cbreak mode and single keys act at once: → (or n, Enter) ends the episode and
-saves it, ← (or r) re-records it, Esc (or q) stops the session after saving what is done. When stdin is not a
-terminal (a pipe, a script), whole lines do the same: "next", "rerecord", "stop". The glove's reset button
-(an event frame) ends the episode like →.
+saves it, ← (or r) re-records it, Esc (or q) stops the session after saving what is done, z re-takes host
+fusion's reference pose (hold the hand in it). When stdin is not a terminal (a pipe, a script), whole lines do
+the same: "next", "rerecord", "stop", "zero" (or "reset"). The glove's reset button (an event frame) ends the
+episode like → and re-takes the reference pose like z.
 """
 
 from __future__ import annotations
@@ -15,11 +16,12 @@ import termios
 import threading
 import tty
 
-NEXT, RERECORD, STOP = "next", "rerecord", "stop"
+NEXT, RERECORD, STOP, RESET = "next", "rerecord", "stop", "reset"
 
 _KEYS = {b"\x1b[C": NEXT, b"n": NEXT, b"\n": NEXT, b"\r": NEXT,
-         b"\x1b[D": RERECORD, b"r": RERECORD, b"\x1b": STOP, b"q": STOP}
-_LINES = {"next": NEXT, "n": NEXT, "": NEXT, "rerecord": RERECORD, "r": RERECORD, "stop": STOP, "q": STOP}
+         b"\x1b[D": RERECORD, b"r": RERECORD, b"\x1b": STOP, b"q": STOP, b"z": RESET}
+_LINES = {"next": NEXT, "n": NEXT, "": NEXT, "rerecord": RERECORD, "r": RERECORD, "stop": STOP, "q": STOP,
+          "zero": RESET, "reset": RESET, "z": RESET}
 
 
 class Control:
@@ -30,13 +32,23 @@ class Control:
         self._pending: list[str] = []
         self._stdin = stdin if stdin is not None else sys.stdin
         self._saved_tty = None
+        self._resetters: list = []
         self._stop = threading.Event()
         self._thread = None
         if enabled and self._stdin is not None and not self._stdin.closed:
             self._thread = threading.Thread(target=self._run, daemon=True, name="gloverec-keys")
             self._thread.start()
 
+    def on_reset(self, fn) -> None:
+        """Call ``fn()`` (from the key reader's thread: it must only flag the reset) for every RESET request,
+        instead of queueing it for ``take()``."""
+        self._resetters.append(fn)
+
     def request(self, what: str) -> None:
+        if what == RESET and self._resetters:
+            for fn in self._resetters:
+                fn()
+            return
         with self._lock:
             self._pending.append(what)
 

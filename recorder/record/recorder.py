@@ -25,6 +25,7 @@ from recorder.record.control import NEXT, RERECORD, STOP, Control
 from recorder.record.features import dataset_features
 from recorder.record.glove_input import GloveInput
 from recorder.record.store import EpisodeStore
+from recorder.record.writer import EpisodeWriter
 
 FIRST_SAMPLE_TIMEOUT_S = 5.0
 
@@ -85,25 +86,42 @@ class Recorder:
         self.features = dataset_features(self.u, use_videos=bool(cfg.cameras))
         self.store = EpisodeStore(cfg.root_path, cfg.repo_id, cfg.fps, self.features,
                                   robot_type=cfg.robot, resume=cfg.resume, use_videos=bool(cfg.cameras))
+        self.base_frames = self.store.num_frames
+        self.writer = EpisodeWriter(self.store)  # forked now: before the glove, the log or any thread opens
+        try:
+            self._open_session(control)
+        except BaseException:
+            self.writer.close()   # an idle writer: ends at once (else the exit would wait for it forever)
+            self.store.close()
+            raise
+
+    def _open_session(self, control) -> None:
+        cfg = self.cfg
         self.glove = GloveInput(cfg.glove, self.fast, rate_hz=cfg.glove_rate_hz, mode=cfg.glove_mode,
                                 seed=cfg.seed, fusion=self._fusion())
+        self.glove.fusion.keep_in(self.store.work, self._say)  # meta/gloverec/calibration.json, before any episode
         self.logger = None
         self.log_rel = None
         if cfg.log:
             self._open_log()
         self.control = control if control is not None else Control()
+        self.control.on_reset(self.glove.reset_pose)  # the reset key re-takes host fusion's reference pose
         self.period = 1.0 / cfg.fps
         self.delay_s = 0.0  # real time: set per episode from the glove's measured sample interval
         self._last_line = 0.0
 
     def _fusion(self):
-        if self.cfg.glove_mode != "raw" and self.cfg.glove == "emulator":
-            return None
-        try:
-            from recorder.fusion.host import HostFusion
-        except ImportError:
-            return None
-        return HostFusion()
+        """Host fusion for the session (recorder/fusion/session.py): the glove's saved calibration
+        ($GLOVEREC_CALIBRATION_DIR or datasets/calibration), or for a log (`rerecord`) the one it was recorded with."""
+        from recorder.fusion.session import SessionFusion
+
+        if self.cfg.glove.startswith("mcap:"):
+            from recorder.log.playback import log_calibration
+
+            record = log_calibration(self.cfg.glove[len("mcap:"):])
+            if record is not None:
+                return SessionFusion.from_record(record, self.cfg.glove)
+        return SessionFusion()
 
     def _open_log(self) -> None:
         from recorder.log.writer import McapLogger
@@ -113,7 +131,8 @@ class Recorder:
         name = time.strftime("session-%Y%m%d-%H%M%S.mcap")
         self.logger = McapLogger(logs / name, {"source": self.cfg.glove, "repo_id": self.cfg.repo_id,
                                                "robot": self.cfg.robot, "task": self.cfg.task,
-                                               "fps": str(self.cfg.fps)})
+                                               "fps": str(self.cfg.fps)}, calibration=self.glove.fusion.record)
+        self.glove.fusion.on_record(self.logger.set_calibration)  # a real glove's: once its first frames came
         self.glove.source.taps.append(self.logger)
         self.log_rel = f"logs/{name}"
 
@@ -121,19 +140,18 @@ class Recorder:
     def run(self) -> dict:
         """Record until ``episodes`` are saved or the user stops; returns a summary."""
         cfg = self.cfg
-        saved, rerecorded, lost = [], 0, 0
+        recorded, rerecorded, lost = 0, 0, 0
+        self.saved = []
         try:
             self.glove.open()
             self._say(f"recording {cfg.episodes} episode(s) of {cfg.task} on {cfg.robot} from {self.glove.spec} "
                       f"({'faster than real time' if self.fast else 'real time'}) into {cfg.root_path}")
-            while len(saved) < (cfg.episodes if self.plan is None else len(self.plan) + len(saved)):
-                index = self.store.num_episodes
+            while recorded < (cfg.episodes if self.plan is None else len(self.plan) + recorded):
+                index = self.store.next_index
                 outcome, result = self._one_episode(index)
+                self._report_saved()
                 if outcome == "saved":
-                    saved.append(result)
-                    self._say(f"episode {index} saved: {result['frames']} frames, success={result['success']}, "
-                              f"late {result['glove_late']}, dropped {result['glove_dropped']}, "
-                              f"latency p99 {result['latency_ms_p99']} ms")
+                    recorded += 1
                 elif outcome == "rerecord":
                     rerecorded += 1
                     self._say(f"episode {index} discarded: re-recording it")
@@ -147,15 +165,29 @@ class Recorder:
                     break
         finally:
             self.close()
+        saved = self.saved
         return {"root": str(cfg.root_path), "repo_id": cfg.repo_id, "episodes_saved": len(saved),
-                "total_episodes": self.store.num_episodes, "total_frames": self.store.num_frames,
+                "total_episodes": self.store.num_episodes + len(saved),
+                "total_frames": self.base_frames + sum(s["frames"] for s in saved),
                 "rerecorded": rerecorded, "lost": lost,
                 "success_rate": round(float(np.mean([s["success"] for s in saved])), 3) if saved else None,
                 "log": self.log_rel}
 
+    def _report_saved(self, wait: bool = False) -> None:
+        """Say which episodes the writer process has saved (published) since the last call."""
+        for index, result in self.writer.results(wait):
+            self.saved.append(result)
+            self._say(f"episode {index} saved: {result['frames']} frames, success={result['success']}, "
+                      f"late {result['glove_late']}, dropped {result['glove_dropped']}, "
+                      f"latency p99 {result['latency_ms_p99']} ms")
+
     def close(self) -> None:
         self.glove.close()
-        self.store.close()
+        try:
+            self._report_saved(wait=True)
+        finally:
+            self.writer.close()
+            self.store.close()
         if self.logger is not None:
             self.logger.close()
         self.control.close()
@@ -196,6 +228,7 @@ class Recorder:
         wall_end = time.monotonic() + (30.0 if self.demonstrator is not None else self.cfg.reset_time_s + 30.0)
         while True:
             g.poll(timeout=0.02)
+            self._report_saved()
             button = g.take_button()
             if button is not None:
                 return button
@@ -301,7 +334,7 @@ class Recorder:
                              device_start_s=device_start)
             self.logger.flush()
             result["log"] = {"file": self.log_rel, **_log_range(self.logger, start, g, stats.frames, self.period)}
-        self.store.save_episode(result)
+        self.writer.submit(self.store.take_episode(), result)
         if stop_after:
             result["stop"] = True
         return "saved", result

@@ -18,18 +18,23 @@ rebuilds the working copy from the last snapshot, discarding whatever the interr
 
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import shutil
+import time
 from pathlib import Path
 
 from recorder import GloverecError
+from recorder.record.episode_stats import lerobot_save_speedups
 
 STATE_SUFFIX = ".gloverec"
 SIDECAR = "meta/gloverec/episodes.jsonl"   # our per-episode metadata, one JSON object per line
-IMMUTABLE = ("data/", "meta/episodes/", "videos/")   # files there never change once their episode is closed
+IMMUTABLE = ("data/", "meta/episodes/", "videos/", "logs/")   # never rewritten once closed (session logs: only
+# appended, so a snapshot's hard link sees the ranges of its episodes and, later, more)
 TRANSIENT = ("images/",)                   # lerobot's temporary PNGs for video encoding
 KEEP_SNAPSHOTS = 2
+LOCK_WAIT_S = 10.0   # how long a session waits for another one (e.g. the writer of a killed one) to finish
 TINY_MB = 1e-6   # lerobot file-size limit in the working copy: forces one file per episode
 
 
@@ -52,8 +57,10 @@ def _files(base: Path):
             yield rel, p
 
 
-def _clone(src: Path, dst: Path, published_info: bool) -> None:
-    """Copy a dataset tree: hard links for immutable per-episode files, real copies for the rest."""
+def _clone(src: Path, dst: Path, published_info: bool, durable: set | None = None) -> None:
+    """Copy a dataset tree: hard links for immutable per-episode files, real copies for the rest; everything
+    fsynced except the linked files named in ``durable`` (synced by an earlier clone; new ones are added)."""
+    durable = set() if durable is None else durable
     dst.mkdir(parents=True)
     for rel, p in _files(src):
         out = dst / rel
@@ -69,11 +76,30 @@ def _clone(src: Path, dst: Path, published_info: bool) -> None:
             out.write_text(json.dumps(info, indent=4))
         else:
             shutil.copyfile(p, out)
-        if not rel.startswith(IMMUTABLE):
+        if rel not in durable:
             _fsync(out)
+            if rel.startswith(IMMUTABLE) and not rel.startswith("logs/"):  # logs grow: synced every time
+                durable.add(rel)
     for d in sorted({*dst.rglob("*")} | {dst}, key=lambda q: -len(q.parts)):
         if d.is_dir():
             _fsync(d)
+
+
+def _lock(path: Path, root) -> int:
+    """One session at a time per dataset: an flock held while the store is open. A writer process forked
+    from the session inherits it, so a session killed while its writer still saves keeps the dataset locked
+    until the writer is done; the kernel releases it however the processes end."""
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    end = time.monotonic() + LOCK_WAIT_S
+    while True:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            return fd
+        except BlockingIOError:
+            if time.monotonic() > end:
+                os.close(fd)
+                raise GloverecError(f"{root} is in use by another gloverec session") from None
+            time.sleep(0.05)
 
 
 class EpisodeStore:
@@ -82,18 +108,31 @@ class EpisodeStore:
     def __init__(self, root: str | Path, repo_id: str, fps: int, features: dict, robot_type: str,
                  resume: bool = False, use_videos: bool = True):
         import datasets
-        from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
         datasets.disable_progress_bars()  # one "Map" bar per episode says nothing to a person recording
         self.root = Path(root).absolute()
         self.state = state_dir(self.root)
         self.work = self.state / "work"
         self.snapshots = self.state / "snapshots"
+        self._durable: set[str] = set()   # linked files already fsynced (by an earlier publish)
         exists = self.root.exists() or self.root.is_symlink()
         if exists and not resume:
             raise GloverecError(f"{root} already exists: pass --resume to add episodes, or choose another --root")
         if exists and not self._ours():
             raise GloverecError(f"{root} is not a gloverec recording (no {self.state.name}/): cannot resume it")
+        self.state.mkdir(parents=True, exist_ok=True)
+        self._lock = _lock(self.state / "lock", root)
+        try:
+            self._open(repo_id, fps, features, robot_type, resume, use_videos)
+        except BaseException:
+            os.close(self._lock)
+            raise
+
+    def _open(self, repo_id, fps, features, robot_type, resume, use_videos) -> None:
+        from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+        if not resume and (self.root.exists() or self.root.is_symlink()):  # appeared while we waited
+            raise GloverecError(f"{self.root} already exists: pass --resume to add episodes, or choose another --root")
         if resume and self._latest() is not None:
             shutil.rmtree(self.work, ignore_errors=True)          # what the interrupted session left
             _clone(self._latest(), self.work, published_info=False)
@@ -138,18 +177,38 @@ class EpisodeStore:
         return self.dataset.meta.total_frames
 
     # ------------------------------------------------------------------ writing
+    @property
+    def next_index(self) -> int:
+        """The index of the episode being filled (ahead of ``num_episodes`` while a writer process saves)."""
+        buffer = self.dataset.episode_buffer
+        return self.num_episodes if buffer is None else int(buffer["episode_index"])
+
     def add_frame(self, frame: dict) -> None:
         self.dataset.add_frame(frame)
 
     def discard_episode(self) -> None:
         """Drop the frames of the episode in progress (re-record, or a glove that vanished)."""
-        self.dataset.clear_episode_buffer()
+        ds = self.dataset
+        index = self.next_index
+        ds.clear_episode_buffer()
+        for key in ds.meta.video_keys:   # lerobot's clear only removes the PNGs of image features
+            shutil.rmtree(ds._get_image_file_dir(index, key), ignore_errors=True)
+        ds.episode_buffer = ds.create_episode_buffer(episode_index=index)
 
-    def save_episode(self, sidecar: dict) -> int:
-        """Write the episode in progress and publish the dataset with it. Returns its index."""
+    def take_episode(self) -> dict:
+        """Hand over the episode in progress (to ``save_episode`` in a writer process) and start the next."""
+        ds = self.dataset
+        episode = ds.episode_buffer
+        ds.episode_buffer = ds.create_episode_buffer(episode_index=int(episode["episode_index"]) + 1)
+        return episode
+
+    def save_episode(self, sidecar: dict, episode: dict | None = None) -> int:
+        """Write the episode in progress (or ``episode``, from ``take_episode``) and publish the dataset with
+        it. Returns its index."""
         ds = self.dataset
         index = ds.meta.total_episodes
-        ds.save_episode()
+        with lerobot_save_speedups(ds.features):
+            ds.save_episode(episode_data=episode)
         ds._close_writer()        # footers: the episode's parquet files are complete and never reopened
         ds.meta._close_writer()
         ds._writer_closed_for_reading = True
@@ -166,7 +225,7 @@ class EpisodeStore:
         final = self.snapshots / f"{n:06d}"
         tmp = self.snapshots / f".{n:06d}.tmp"
         shutil.rmtree(tmp, ignore_errors=True)
-        _clone(self.work, tmp, published_info=True)
+        _clone(self.work, tmp, published_info=True, durable=self._durable)
         os.rename(tmp, final)
         link = self.root.parent / f".{self.root.name}.link.tmp"
         if link.is_symlink():
@@ -187,6 +246,9 @@ class EpisodeStore:
             self.discard_episode()
         self.dataset._close_writer()
         self.dataset.meta._close_writer()
+        if self._lock is not None:
+            os.close(self._lock)   # a writer process forked from here holds it until it exits too
+            self._lock = None
 
 
 def read_sidecar(root: str | Path) -> list[dict]:

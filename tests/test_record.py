@@ -1,6 +1,7 @@
 """`gloverec record` end to end: emulated glove -> pty -> loop -> env -> a dataset lerobot loads."""
 
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -232,3 +233,17 @@ def test_inspect_reports_episodes_and_plots(pose_dataset, tmp_path):
     (broken / "meta" / "info.json").write_text("{not json")
     r = gloverec("inspect", "--repo-id", "test/pose", "--root", str(broken))
     assert r.returncode == 1 and r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
+
+
+def test_a_raw_glove_in_real_time_starts_its_first_episode_once_fusion_has_a_pose(emulator, tmp_path):
+    """Host fusion shows its first pose after ~1 s of rest; a reset period shorter than that must not start an
+    episode without a pose (which would count as a lost glove and record the episode again)."""
+    emu = emulator("--rate", "200", "--mode", "raw")
+    env = {**os.environ, "GLOVEREC_CALIBRATION_DIR": str(tmp_path / "cal")}   # none saved: uncalibrated
+    r = gloverec("record", "--glove", f"serial:{emu.port}", "--episodes", "1", "--episode-time-s", "1",
+                 "--reset-time-s", "0.1", "--root", str(tmp_path / "ds"), "--repo-id", "test/raw", "--json",
+                 timeout=120, env=env)
+    assert r.returncode == 0, r.stderr
+    summary = json.loads(r.stdout.strip().splitlines()[-1])
+    assert summary["episodes_saved"] == 1 and summary["lost"] == 0, r.stderr
+    assert LeRobotDataset("test/raw", root=tmp_path / "ds").num_frames == 30

@@ -226,16 +226,19 @@ class Recorder:
         begin = g.now()
         limit = float("inf") if self.demonstrator is not None else self.cfg.reset_time_s
         wall_end = time.monotonic() + (30.0 if self.demonstrator is not None else self.cfg.reset_time_s + 30.0)
+        asked = False
         while True:
             g.poll(timeout=0.02)
             self._report_saved()
             button = g.take_button()
-            if button is not None:
-                return button
             what = self.control.take()
             if what == STOP:
                 return None
-            if what == NEXT or g.now() - begin >= limit:
+            ready = g.track.newest_s is not None  # raw frames: host fusion's first pose comes after the rest
+            if button is not None and ready:
+                return button
+            asked = asked or what == NEXT or button is not None
+            if ready and (asked or g.now() - begin >= limit):
                 return g.now()
             if g.finished and g.poll() == 0:
                 return None

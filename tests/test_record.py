@@ -247,3 +247,19 @@ def test_a_raw_glove_in_real_time_starts_its_first_episode_once_fusion_has_a_pos
     summary = json.loads(r.stdout.strip().splitlines()[-1])
     assert summary["episodes_saved"] == 1 and summary["lost"] == 0, r.stderr
     assert LeRobotDataset("test/raw", root=tmp_path / "ds").num_frames == 30
+
+
+def test_real_time_episodes_run_without_cyclic_gc_and_restore_it():
+    import gc
+
+    from recorder.record.recorder import _no_gc_pauses
+
+    assert gc.isenabled()
+    with _no_gc_pauses(enabled=True):
+        assert not gc.isenabled()
+    assert gc.isenabled()
+    with pytest.raises(RuntimeError), _no_gc_pauses(enabled=True):
+        raise RuntimeError("an episode that fails")
+    assert gc.isenabled()
+    with _no_gc_pauses(enabled=False):   # faster than real time: collections as usual
+        assert gc.isenabled()

@@ -12,8 +12,10 @@ either side of the frame time has usually arrived; faster than real time it tick
 
 from __future__ import annotations
 
+import gc
 import sys
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -54,6 +56,21 @@ class EpisodeStats:
                 "loop_overruns": self.overruns, "jitter_ms_p99": pct(self.jitter_s, 99),
                 "latency_ms_p50": pct(self.latency_s, 50), "latency_ms_p99": pct(self.latency_s, 99),
                 "retarget_error_mm_mean": round(float(np.mean(self.retarget_mm)), 3) if self.retarget_mm else None}
+
+
+@contextmanager
+def _no_gc_pauses(enabled: bool):
+    """Real time: no cyclic garbage collection during an episode's frames (a full collection of this process'
+    heap stalls the loop for tens of milliseconds); what an episode leaves is collected in the reset period.
+    Reference counting still frees everything else at once."""
+    if not enabled or not gc.isenabled():
+        yield
+        return
+    gc.disable()
+    try:
+        yield
+    finally:
+        gc.enable()
 
 
 class Recorder:
@@ -142,6 +159,9 @@ class Recorder:
         cfg = self.cfg
         recorded, rerecorded, lost = 0, 0, 0
         self.saved = []
+        if not self.fast:
+            gc.collect()
+            gc.freeze()  # the heap of torch, lerobot, mujoco (~0.3 s to traverse): never looked at again
         try:
             self.glove.open()
             self._say(f"recording {cfg.episodes} episode(s) of {cfg.task} on {cfg.robot} from {self.glove.spec} "
@@ -213,7 +233,8 @@ class Recorder:
             self.logger.mark("episode_start", episode=index, seed=seed, glove_time_s=start)
         if not self.fast:
             self._say(f"episode {index} started: {self.task_text} (→ ends it, ← records it again, Esc stops)")
-        return self._record(index, seed, obs, start, None if planned is None else planned[2])
+        with _no_gc_pauses(enabled=not self.fast):
+            return self._record(index, seed, obs, start, None if planned is None else planned[2])
 
     def _wait_for_start(self) -> float | None:
         """The reset period: ends at the glove's button, → on the keyboard, or after reset_time_s."""

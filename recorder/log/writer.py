@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import datetime
 import json
+import os
 import platform
 import socket
 import threading
@@ -293,6 +294,7 @@ class McapLogger:
                     if self.error is None:
                         self._writer.finish()
                         self._file.flush()
+                        os.fsync(self._file.fileno())  # the finished log survives power loss too
                 except (OSError, ValueError) as exc:
                     self.error = self._write_error(exc)
                 finally:

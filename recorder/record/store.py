@@ -31,7 +31,9 @@ from recorder.record.episode_stats import lerobot_save_speedups
 STATE_SUFFIX = ".gloverec"
 SIDECAR = "meta/gloverec/episodes.jsonl"   # our per-episode metadata, one JSON object per line
 IMMUTABLE = ("data/", "meta/episodes/", "videos/", "logs/")   # never rewritten once closed (session logs: only
-# appended, so a snapshot's hard link sees the ranges of its episodes and, later, more)
+# appended, so a snapshot's hard link sees the ranges of its episodes and, later, more). The live session log is
+# not fsynced at each publish (an fsync of a file being written stalls the glove reader's writes to it for tens
+# of milliseconds); the logger fsyncs it when the session ends, and a log cut short by power loss still reads.
 TRANSIENT = ("images/",)                   # lerobot's temporary PNGs for video encoding
 KEEP_SNAPSHOTS = 2
 LOCK_WAIT_S = 10.0   # how long a session waits for another one (e.g. the writer of a killed one) to finish
@@ -76,9 +78,9 @@ def _clone(src: Path, dst: Path, published_info: bool, durable: set | None = Non
             out.write_text(json.dumps(info, indent=4))
         else:
             shutil.copyfile(p, out)
-        if rel not in durable:
+        if rel not in durable and not rel.startswith("logs/"):
             _fsync(out)
-            if rel.startswith(IMMUTABLE) and not rel.startswith("logs/"):  # logs grow: synced every time
+            if rel.startswith(IMMUTABLE):
                 durable.add(rel)
     for d in sorted({*dst.rglob("*")} | {dst}, key=lambda q: -len(q.parts)):
         if d.is_dir():

@@ -222,6 +222,8 @@ def cmd_log(args) -> int:
                 monitor.run(args.duration, live=not args.json and sys.stderr.isatty())
             except KeyboardInterrupt:
                 pass
+        for frame in source.drain():  # the reader has stopped: count what it logged after the monitor stopped
+            monitor.consume(frame)
     finally:
         logger.close()
     return _finish(monitor, args, f"logged to {args.out}")

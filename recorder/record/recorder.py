@@ -103,7 +103,6 @@ class Recorder:
         self.features = dataset_features(self.u, use_videos=bool(cfg.cameras))
         self.store = EpisodeStore(cfg.root_path, cfg.repo_id, cfg.fps, self.features,
                                   robot_type=cfg.robot, resume=cfg.resume, use_videos=bool(cfg.cameras))
-        self.base_frames = self.store.num_frames
         self.writer = EpisodeWriter(self.store)  # forked now: before the glove, the log or any thread opens
         try:
             self._open_session(control)
@@ -187,8 +186,8 @@ class Recorder:
             self.close()
         saved = self.saved
         return {"root": str(cfg.root_path), "repo_id": cfg.repo_id, "episodes_saved": len(saved),
-                "total_episodes": self.store.num_episodes + len(saved),
-                "total_frames": self.base_frames + sum(s["frames"] for s in saved),
+                "total_episodes": self.store.num_episodes + len(saved),   # this process' store: as opened
+                "total_frames": self.store.num_frames + sum(s["frames"] for s in saved),
                 "rerecorded": rerecorded, "lost": lost,
                 "success_rate": round(float(np.mean([s["success"] for s in saved])), 3) if saved else None,
                 "log": self.log_rel}

@@ -152,7 +152,9 @@ class Session:
         self.proc.stdin.flush()
 
     def finish(self):
-        out, _ = self.proc.communicate(timeout=90)
+        # stdout only: communicate() would also read stderr, taking lines from under the reader thread
+        out = self.proc.stdout.read()
+        self.proc.wait(timeout=90)
         self._t.join(5)
         assert self.proc.returncode == 0, "".join(self.lines)
         return json.loads(out.strip().splitlines()[-1]), "".join(self.lines)

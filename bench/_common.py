@@ -22,8 +22,13 @@ sys.path.insert(0, str(REPO))
 def write_results(name: str, results: dict) -> Path:
     RESULTS.mkdir(parents=True, exist_ok=True)
     path = RESULTS / f"{name}.json"
-    meta = {"benchmark": name, "when": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "python": platform.python_version(),
-            "machine": platform.machine(), "cpus": __import__("os").cpu_count()}
+    meta = {
+        "benchmark": name,
+        "when": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "python": platform.python_version(),
+        "machine": platform.machine(),
+        "cpus": __import__("os").cpu_count(),
+    }
     path.write_text(json.dumps({"meta": meta, **results}, indent=2) + "\n")
     print(f"wrote {path}")
     return path
@@ -36,5 +41,4 @@ def median_rate(fn, items: int, runs: int = 5) -> dict:
         t = time.perf_counter()
         fn()
         rates.append(items / (time.perf_counter() - t))
-    return {"median": round(statistics.median(rates)), "min": round(min(rates)), "max": round(max(rates)),
-            "runs": runs}
+    return {"median": round(statistics.median(rates)), "min": round(min(rates)), "max": round(max(rates)), "runs": runs}

@@ -25,10 +25,9 @@ from pathlib import Path
 os.environ.setdefault("MUJOCO_GL", "egl")
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from _common import write_results  # noqa: E402
-
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
+from _common import write_results  # noqa: E402
 
 import envs  # noqa: E402
 from recorder.demonstrator.rollout import run_episode, success_rate  # noqa: E402
@@ -60,6 +59,7 @@ def step_cost(task: str, robot: str, runs: int) -> dict:
         env.reset(seed=0)
         for a in actions:
             env.step(a)
+
     out = _median(replay, len(actions), runs)
     out["substeps"] = env.unwrapped.n_substeps
     out["frames"] = len(actions)
@@ -76,6 +76,7 @@ def render_cost(robot: str, size: int, runs: int, n: int = 60) -> dict:
         for _ in range(n):
             r.update_scene(u.data, camera="front")
             r.render()
+
     render()  # warm up the GL context
     out = _median(render, n, runs)
     r.close()
@@ -92,6 +93,7 @@ def retarget_cost(robot: str, mode: str, runs: int, n: int = 300) -> dict:
         errors.clear()
         for a, q in zip(block.angles, block.palm_quat):
             errors.append(r(a, q)[1]["tip_error_mean"])
+
     out = _median(go, n, runs)
     out["mean_tip_error_mm"] = round(1000 * float(np.mean(errors)), 2)
     return out
@@ -112,14 +114,17 @@ def main(argv=None) -> None:
             print(f"render {robot} {size}x{size}: {r['us_per_frame']} us/frame", flush=True)
         for mode in ("joint", "ik"):
             results["retarget"][f"{robot}/{mode}"] = r = retarget_cost(robot, mode, args.runs)
-            print(f"retarget {robot} {mode}: {r['us_per_frame']} us/frame, tip error {r['mean_tip_error_mm']} mm",
-                  flush=True)
+            print(
+                f"retarget {robot} {mode}: {r['us_per_frame']} us/frame, tip error {r['mean_tip_error_mm']} mm",
+                flush=True,
+            )
     for robot in ROBOTS:
         for task in TASKS:
             for via in ("direct", "glove"):
                 s = success_rate(task, robot, args.episodes, via)
                 results["success"][f"{task}/{robot}/{via}"] = {
-                    k: s[k] for k in ("success_rate", "successes", "episodes", "mean_tip_error_mm")}
+                    k: s[k] for k in ("success_rate", "successes", "episodes", "mean_tip_error_mm")
+                }
                 print(f"success {task}/{robot}/{via}: {s['successes']}/{s['episodes']}", flush=True)
     write_results("envs", results)
 

@@ -51,8 +51,15 @@ def make_data(kind: str, rate: int, seconds: float, seed: int) -> dict:
     glove = emulated.procedure_glove(kind, rate, seed)
     b = glove.next_block(int(round((emulated.START + seconds) * rate)))
     t_us = np.round(np.arange(len(b.t)) * 1e6 / rate).astype(np.int64)
-    return {"block": b, "raw": b.raw, "t_us": t_us, "rate": rate, "start": int(round(emulated.START * rate)),
-            "rest": emulated.phase("rest", rate), "kind": kind}
+    return {
+        "block": b,
+        "raw": b.raw,
+        "t_us": t_us,
+        "rate": rate,
+        "start": int(round(emulated.START * rate)),
+        "rest": emulated.phase("rest", rate),
+        "kind": kind,
+    }
 
 
 def calibrated(d: dict, config: FusionConfig) -> HostFusion:
@@ -82,16 +89,16 @@ def score(d: dict, angles, quats16) -> dict:
     heading = np.degrees(np.unwrap(2.0 * np.arctan2(e[..., 3], e[..., 0]), axis=0))[:, IMU_SEG[1:]]
     minutes = np.arange(len(heading)) / rate / 60.0
     slope = np.polyfit(minutes, heading, 1)[0]  # deg/min per IMU segment
-    per_joint = np.sqrt(np.mean(err ** 2, axis=0))
+    per_joint = np.sqrt(np.mean(err**2, axis=0))
     win = rate  # 1-s windows for the plot
     n = len(err) // win
     return {
-        "joint_rms_deg": float(np.sqrt(np.mean(err ** 2))),
+        "joint_rms_deg": float(np.sqrt(np.mean(err**2))),
         "joint_rms_max_deg": float(per_joint.max()),
         "worst_joint": JOINTS[int(per_joint.argmax())],
         "per_joint_rms_deg": {j: round(float(v), 3) for j, v in zip(JOINTS, per_joint)},
-        "fingertip_rms_mm": float(np.sqrt(np.mean(tip_err ** 2))),
-        "per_fingertip_rms_mm": {f: round(float(v), 3) for f, v in zip(FINGERS, np.sqrt(np.mean(tip_err ** 2, 0)))},
+        "fingertip_rms_mm": float(np.sqrt(np.mean(tip_err**2))),
+        "per_fingertip_rms_mm": {f: round(float(v), 3) for f, v in zip(FINGERS, np.sqrt(np.mean(tip_err**2, 0)))},
         "heading_drift_max_deg_per_min": float(np.max(np.abs(slope))),
         "heading_drift_mean_deg_per_min": float(np.mean(np.abs(slope))),
         "error_over_time_deg": np.sqrt(np.mean(err[: n * win].reshape(n, win, -1) ** 2, axis=(1, 2))).round(3).tolist(),
@@ -114,8 +121,11 @@ def hand_model(hf: HostFusion, q_imu) -> tuple[np.ndarray, np.ndarray]:
 
 # ------------------------------------------------------------------------------------------------ ours
 def run_ours(d: dict, name: str, full: bool, runs: int) -> dict:
-    config = FusionConfig(filter=name, rate_hz=d["rate"]) if full else \
-        FusionConfig(filter=name, rate_hz=d["rate"], track_bias=False, heading_rate=0.0)
+    config = (
+        FusionConfig(filter=name, rate_hz=d["rate"])
+        if full
+        else FusionConfig(filter=name, rate_hz=d["rate"], track_bias=False, heading_rate=0.0)
+    )
     k1 = d["rest"].stop
     raw, t = d["raw"][k1:], d["t_us"][k1:]
     costs, out = [], None
@@ -181,13 +191,17 @@ def _long_run(d: dict, name: str, minutes: float, rate: int) -> dict:
     heading = np.degrees(np.unwrap(2.0 * np.arctan2(e[..., 3], e[..., 0]), axis=0))[:, IMU_SEG[1:]]
     per_min = heading[: int(minutes) * 60 * rate].reshape(int(minutes), 60 * rate, -1)
     slope = np.polyfit(np.arange(len(heading)) / rate / 60.0, heading, 1)[0]
-    err = np.degrees(out.angles[k0 - k1:] - d["block"].angles[k0:])[: int(minutes) * 60 * rate]
+    err = np.degrees(out.angles[k0 - k1 :] - d["block"].angles[k0:])[: int(minutes) * 60 * rate]
     err = err.reshape(int(minutes), 60 * rate, -1)
-    return {"motion": "random", "rate_hz": rate, "minutes": minutes,
-            "heading_drift_max_deg_per_min": float(np.max(np.abs(slope))),
-            "heading_rms_by_minute_deg": np.sqrt(np.mean(per_min ** 2, axis=(1, 2))).round(3).tolist(),
-            "joint_rms_by_minute_deg": np.sqrt(np.mean(err ** 2, axis=(1, 2))).round(3).tolist(),
-            "worst_joint_rms_last_minute_deg": float(np.sqrt(np.mean(err[-1] ** 2, axis=0)).max())}
+    return {
+        "motion": "random",
+        "rate_hz": rate,
+        "minutes": minutes,
+        "heading_drift_max_deg_per_min": float(np.max(np.abs(slope))),
+        "heading_rms_by_minute_deg": np.sqrt(np.mean(per_min**2, axis=(1, 2))).round(3).tolist(),
+        "joint_rms_by_minute_deg": np.sqrt(np.mean(err**2, axis=(1, 2))).round(3).tolist(),
+        "worst_joint_rms_last_minute_deg": float(np.sqrt(np.mean(err[-1] ** 2, axis=0)).max()),
+    }
 
 
 # ------------------------------------------------------------------------------------------------ baselines
@@ -301,8 +315,18 @@ def main(argv=None) -> int:
     if args.quick:
         args.seconds, args.rates, args.motions, args.runs = 10.0, [200], ["gestures"], 1
     warnings.filterwarnings("ignore")
-    baselines = [] if args.no_baselines else ["ahrs_madgwick", "ahrs_madgwick_at_our_gain", "ahrs_mahony",
-                                              "ahrs_mahony_at_our_gains", "ahrs_aqua", "imufusion"]
+    baselines = (
+        []
+        if args.no_baselines
+        else [
+            "ahrs_madgwick",
+            "ahrs_madgwick_at_our_gain",
+            "ahrs_mahony",
+            "ahrs_mahony_at_our_gains",
+            "ahrs_aqua",
+            "imufusion",
+        ]
+    )
     results = {"config": vars(args), "accuracy": {}, "cost": {}}
     for rate in args.rates:
         for kind in args.motions:
@@ -312,14 +336,20 @@ def main(argv=None) -> int:
             for name in FILTERS:
                 acc[f"ours_{name}"] = run_ours(d, name, True, args.runs)
                 acc[f"ours_{name}_filter_only"] = run_ours(d, name, False, 1)
-                print(f"{case:18s} ours_{name:14s} {acc[f'ours_{name}']['joint_rms_deg']:.2f} deg "
-                      f"{acc[f'ours_{name}']['fingertip_rms_mm']:.2f} mm "
-                      f"{acc[f'ours_{name}']['heading_drift_max_deg_per_min']:.2f} deg/min", flush=True)
+                print(
+                    f"{case:18s} ours_{name:14s} {acc[f'ours_{name}']['joint_rms_deg']:.2f} deg "
+                    f"{acc[f'ours_{name}']['fingertip_rms_mm']:.2f} mm "
+                    f"{acc[f'ours_{name}']['heading_drift_max_deg_per_min']:.2f} deg/min",
+                    flush=True,
+                )
             for name in baselines:
                 acc[name] = run_baseline(d, name)
-                print(f"{case:18s} {name:19s} {acc[name]['joint_rms_deg']:.2f} deg "
-                      f"{acc[name]['fingertip_rms_mm']:.2f} mm "
-                      f"{acc[name]['heading_drift_max_deg_per_min']:.2f} deg/min", flush=True)
+                print(
+                    f"{case:18s} {name:19s} {acc[name]['joint_rms_deg']:.2f} deg "
+                    f"{acc[name]['fingertip_rms_mm']:.2f} mm "
+                    f"{acc[name]['heading_drift_max_deg_per_min']:.2f} deg/min",
+                    flush=True,
+                )
         d = make_data("gestures", rate, 15.0, args.seed)
         for name in FILTERS:
             c = results["cost"][f"{name}@{rate}Hz"] = filter_cost(name, rate, args.runs)

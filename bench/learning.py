@@ -34,10 +34,23 @@ os.environ.setdefault("HF_HUB_OFFLINE", "1")
 GOALS = {"pose": 0.95, "grasp": 0.80}
 TRAIN_GOAL_S = 600
 EVAL_SEED = 100_000
-ACT_FLAGS = ["--policy.type=act", "--policy.device=cpu", "--policy.push_to_hub=false", "--policy.dim_model=256",
-             "--policy.dim_feedforward=1024", "--policy.n_encoder_layers=2", "--policy.n_vae_encoder_layers=2",
-             "--policy.chunk_size=10", "--policy.n_action_steps=1", "--policy.temporal_ensemble_coeff=0.01",
-             "--policy.optimizer_lr=1e-4", "--batch_size=32", "--num_workers=0", "--eval_freq=0", "--log_freq=500"]
+ACT_FLAGS = [
+    "--policy.type=act",
+    "--policy.device=cpu",
+    "--policy.push_to_hub=false",
+    "--policy.dim_model=256",
+    "--policy.dim_feedforward=1024",
+    "--policy.n_encoder_layers=2",
+    "--policy.n_vae_encoder_layers=2",
+    "--policy.chunk_size=10",
+    "--policy.n_action_steps=1",
+    "--policy.temporal_ensemble_coeff=0.01",
+    "--policy.optimizer_lr=1e-4",
+    "--batch_size=32",
+    "--num_workers=0",
+    "--eval_freq=0",
+    "--log_freq=500",
+]
 
 
 def gloverec(*args: str, timeout: float = 3600) -> dict:
@@ -53,9 +66,25 @@ def gloverec(*args: str, timeout: float = 3600) -> dict:
 def one(task: str, robot: str, args, tmp: Path, hub: Path) -> dict:
     repo = f"bench/{task}_{robot}"
     t = time.perf_counter()
-    rec = gloverec("record", "--glove", "emulator", "--task", task, "--robot", robot, "--episodes",
-                   str(args.episodes), "--root", str(tmp / "rec" / f"{task}_{robot}"), "--repo-id", repo,
-                   "--seed", "0", "--fast", "--no-log")
+    rec = gloverec(
+        "record",
+        "--glove",
+        "emulator",
+        "--task",
+        task,
+        "--robot",
+        robot,
+        "--episodes",
+        str(args.episodes),
+        "--root",
+        str(tmp / "rec" / f"{task}_{robot}"),
+        "--repo-id",
+        repo,
+        "--seed",
+        "0",
+        "--fast",
+        "--no-log",
+    )
     record_s = time.perf_counter() - t
     gloverec("push", "--repo-id", repo, "--root", rec["root"], "--hub", str(hub))
 
@@ -64,46 +93,97 @@ def one(task: str, robot: str, args, tmp: Path, hub: Path) -> dict:
 
     ref = resolve(repo, hub=hub)
     replays = [replay(ref, e) for e in range(args.episodes)]
-    gloverec("replay", "--repo-id", repo, "--hub", str(hub), "--episode", "0")   # the command itself, once
+    gloverec("replay", "--repo-id", repo, "--hub", str(hub), "--episode", "0")  # the command itself, once
 
     out = tmp / "runs" / f"{task}_{robot}"
     t = time.perf_counter()
     trained = gloverec("train", "--repo-id", repo, "--hub", str(hub), "--steps", str(args.steps), "--out", str(out))
     train_s = time.perf_counter() - t
     shutil.copyfile(out / "loss_curve.png", RESULTS / f"learning_loss_{task}_{robot}.png")
-    ev = gloverec("eval", "--policy", str(out), "--task", task, "--robot", robot, "--episodes",
-                  str(args.eval_episodes), "--seed", str(EVAL_SEED))
-    demo = gloverec("eval", "--policy", "demonstrator", "--task", task, "--robot", robot, "--episodes",
-                    str(args.eval_episodes), "--seed", str(EVAL_SEED))
+    ev = gloverec(
+        "eval",
+        "--policy",
+        str(out),
+        "--task",
+        task,
+        "--robot",
+        robot,
+        "--episodes",
+        str(args.eval_episodes),
+        "--seed",
+        str(EVAL_SEED),
+    )
+    demo = gloverec(
+        "eval",
+        "--policy",
+        "demonstrator",
+        "--task",
+        task,
+        "--robot",
+        robot,
+        "--episodes",
+        str(args.eval_episodes),
+        "--seed",
+        str(EVAL_SEED),
+    )
     result = {
-        "task": task, "robot": robot, "dataset": {"repo_id": repo, "episodes": rec["total_episodes"],
-                                                  "frames": rec["total_frames"],
-                                                  "demo_success_rate": rec["success_rate"],
-                                                  "record_wall_s": round(record_s, 1)},
-        "replay": {"episodes": len(replays), "max_abs_state": max(r["state_max_abs"] for r in replays),
-                   "max_abs_environment_state": max(r.get("environment_state_max_abs", 0.0) for r in replays),
-                   "reproduced": sum(r["reproduced"] for r in replays)},
-        "train": {"steps": args.steps, "train_episodes": trained["train_episodes"],
-                  "val_episodes": trained["val_episodes"], "final_train_loss": trained["final_train_loss"],
-                  "final_val_loss": trained["final_val_loss"], "wall_s": round(train_s, 1),
-                  "goal_s": TRAIN_GOAL_S, "met": train_s <= TRAIN_GOAL_S},
-        "eval": {"episodes": ev["episodes"], "seeds": ev["seeds"], "success_rate": ev["success_rate"],
-                 "mean_return": ev["mean_return"], "mean_length": ev["mean_length"],
-                 "goal": GOALS[task], "met": ev["success_rate"] >= GOALS[task]},
+        "task": task,
+        "robot": robot,
+        "dataset": {
+            "repo_id": repo,
+            "episodes": rec["total_episodes"],
+            "frames": rec["total_frames"],
+            "demo_success_rate": rec["success_rate"],
+            "record_wall_s": round(record_s, 1),
+        },
+        "replay": {
+            "episodes": len(replays),
+            "max_abs_state": max(r["state_max_abs"] for r in replays),
+            "max_abs_environment_state": max(r.get("environment_state_max_abs", 0.0) for r in replays),
+            "reproduced": sum(r["reproduced"] for r in replays),
+        },
+        "train": {
+            "steps": args.steps,
+            "train_episodes": trained["train_episodes"],
+            "val_episodes": trained["val_episodes"],
+            "final_train_loss": trained["final_train_loss"],
+            "final_val_loss": trained["final_val_loss"],
+            "wall_s": round(train_s, 1),
+            "goal_s": TRAIN_GOAL_S,
+            "met": train_s <= TRAIN_GOAL_S,
+        },
+        "eval": {
+            "episodes": ev["episodes"],
+            "seeds": ev["seeds"],
+            "success_rate": ev["success_rate"],
+            "mean_return": ev["mean_return"],
+            "mean_length": ev["mean_length"],
+            "goal": GOALS[task],
+            "met": ev["success_rate"] >= GOALS[task],
+        },
         "demonstrator_same_seeds": {"success_rate": demo["success_rate"], "mean_return": demo["mean_return"]},
     }
-    print(f"  {task}/{robot}: BC success {ev['success_rate']:.0%} (goal {GOALS[task]:.0%}), demonstrator "
-          f"{demo['success_rate']:.0%}, training {train_s:.0f} s, "
-          f"replay max |diff| {result['replay']['max_abs_state']:.3g}", flush=True)
+    print(
+        f"  {task}/{robot}: BC success {ev['success_rate']:.0%} (goal {GOALS[task]:.0%}), demonstrator "
+        f"{demo['success_rate']:.0%}, training {train_s:.0f} s, "
+        f"replay max |diff| {result['replay']['max_abs_state']:.3g}",
+        flush=True,
+    )
     return result
 
 
 def act(task: str, robot: str, steps: int, args, tmp: Path, hub: Path) -> dict:
     repo = f"bench/{task}_{robot}"
     out = tmp / "act"
-    cmd = [str(Path(sys.executable).with_name("lerobot-train")), f"--dataset.repo_id={repo}",
-           f"--dataset.root={hub / repo}", *ACT_FLAGS, f"--steps={steps}", f"--save_freq={steps}",
-           f"--output_dir={out}"]
+    cmd = [
+        str(Path(sys.executable).with_name("lerobot-train")),
+        f"--dataset.repo_id={repo}",
+        f"--dataset.root={hub / repo}",
+        *ACT_FLAGS,
+        f"--steps={steps}",
+        f"--save_freq={steps}",
+        f"--output_dir={out}",
+    ]
     print("  $ lerobot-train " + " ".join(cmd[1:]), flush=True)
     t = time.perf_counter()
     r = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, "OMP_NUM_THREADS": "1"})
@@ -111,10 +191,19 @@ def act(task: str, robot: str, steps: int, args, tmp: Path, hub: Path) -> dict:
     if r.returncode != 0:
         return {"task": task, "robot": robot, "error": r.stderr.strip()[-1500:]}
     ev = gloverec("eval", "--policy", str(out), "--episodes", str(args.eval_episodes), "--seed", str(EVAL_SEED))
-    return {"task": task, "robot": robot, "steps": steps, "train_wall_s": round(wall, 1),
-            "command": "lerobot-train " + " ".join(cmd[1:]).replace(str(tmp), "$TMP"),
-            "eval": {"episodes": ev["episodes"], "success_rate": ev["success_rate"], "mean_return": ev["mean_return"],
-                     "mean_length": ev["mean_length"]}}
+    return {
+        "task": task,
+        "robot": robot,
+        "steps": steps,
+        "train_wall_s": round(wall, 1),
+        "command": "lerobot-train " + " ".join(cmd[1:]).replace(str(tmp), "$TMP"),
+        "eval": {
+            "episodes": ev["episodes"],
+            "success_rate": ev["success_rate"],
+            "mean_return": ev["mean_return"],
+            "mean_length": ev["mean_length"],
+        },
+    }
 
 
 def main() -> None:
@@ -140,11 +229,19 @@ def main() -> None:
             print(f"[ACT through lerobot-train on {pairs[0][0]} / {pairs[0][1]}]", flush=True)
             act_result = act(*pairs[0], args.act_steps, args, tmp, hub)
             print(f"  ACT: {act_result.get('eval', act_result)}", flush=True)
-    write_results("learning", {
-        "episodes": args.episodes, "eval_episodes": args.eval_episodes, "eval_seeds_from": EVAL_SEED,
-        "bc_steps": args.steps, "runs": runs, "act": act_result,
-        "all_goals_met": all(r["eval"]["met"] and r["train"]["met"] for r in runs),
-        "wall_s": round(time.perf_counter() - t0, 1)})
+    write_results(
+        "learning",
+        {
+            "episodes": args.episodes,
+            "eval_episodes": args.eval_episodes,
+            "eval_seeds_from": EVAL_SEED,
+            "bc_steps": args.steps,
+            "runs": runs,
+            "act": act_result,
+            "all_goals_met": all(r["eval"]["met"] and r["train"]["met"] for r in runs),
+            "wall_s": round(time.perf_counter() - t0, 1),
+        },
+    )
 
 
 if __name__ == "__main__":

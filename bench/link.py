@@ -34,9 +34,13 @@ def sizes(block) -> dict:
     pose = encode_frame(PoseFrame(1, 1, block.pose[0]))
     raw = encode_frame(RawFrame(1, 1, block.raw[0]))
     legacy = np.mean([len(encode_line(q)) for q in block.pose])
-    return {"pose_bytes": len(pose), "raw_bytes": len(raw), "legacy_json_bytes_ours": round(float(legacy)),
-            "thesis_json_bytes": THESIS_JSON_BYTES,
-            "pose_vs_thesis_json": round(THESIS_JSON_BYTES / len(pose), 2)}
+    return {
+        "pose_bytes": len(pose),
+        "raw_bytes": len(raw),
+        "legacy_json_bytes_ours": round(float(legacy)),
+        "thesis_json_bytes": THESIS_JSON_BYTES,
+        "pose_vs_thesis_json": round(THESIS_JSON_BYTES / len(pose), 2),
+    }
 
 
 def decode_rates(block, n: int = 100_000) -> dict:
@@ -48,20 +52,37 @@ def decode_rates(block, n: int = 100_000) -> dict:
         def go():
             dec = StreamDecoder(protocol)
             for i in range(0, len(data), chunk):
-                dec.feed(data[i:i + chunk])
+                dec.feed(data[i : i + chunk])
+
         return go
 
-    return {"pose_frames_per_s": median_rate(run(poses, "binary"), n),
-            "raw_frames_per_s": median_rate(run(raws, "binary"), n // 4),
-            "legacy_json_lines_per_s": median_rate(run(lines, "json"), n // 10)}
+    return {
+        "pose_frames_per_s": median_rate(run(poses, "binary"), n),
+        "raw_frames_per_s": median_rate(run(raws, "binary"), n // 4),
+        "legacy_json_lines_per_s": median_rate(run(lines, "json"), n // 10),
+    }
 
 
 def stream(rate: int, duration: float) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         link = f"{tmp}/glove"
-        emu = subprocess.Popen([sys.executable, "-m", "recorder.cli", "emulate", "--rate", str(rate),
-                                "--duration", str(duration + 3), "--link", link],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        emu = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "recorder.cli",
+                "emulate",
+                "--rate",
+                str(rate),
+                "--duration",
+                str(duration + 3),
+                "--link",
+                link,
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         emu.stdout.readline()
         with open_source(link) as src:
             mon = LinkMonitor(src)
@@ -70,11 +91,17 @@ def stream(rate: int, duration: float) -> dict:
         emu.terminate()
         emu.communicate(timeout=10)
     lat = np.array(mon.latencies_s) * 1e3
-    return {"rate_hz": rate, "duration_s": duration, "frames": rep["samples"], "measured_rate_hz": rep["rate_hz"],
-            "frames_lost": rep["gaps"] + rep["queue_drops"], "errors": rep["errors"],
-            "latency_ms_p50": round(float(np.percentile(lat, 50)), 4),
-            "latency_ms_p99": round(float(np.percentile(lat, 99)), 4),
-            "latency_ms_max": round(float(lat.max()), 4)}
+    return {
+        "rate_hz": rate,
+        "duration_s": duration,
+        "frames": rep["samples"],
+        "measured_rate_hz": rep["rate_hz"],
+        "frames_lost": rep["gaps"] + rep["queue_drops"],
+        "errors": rep["errors"],
+        "latency_ms_p50": round(float(np.percentile(lat, 50)), 4),
+        "latency_ms_p99": round(float(np.percentile(lat, 99)), 4),
+        "latency_ms_max": round(float(lat.max()), 4),
+    }
 
 
 def main() -> None:

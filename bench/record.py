@@ -35,13 +35,11 @@ from recorder.record.config import RecordConfig  # noqa: E402
 from recorder.record.recorder import Recorder  # noqa: E402
 from recorder.record.store import read_sidecar  # noqa: E402
 
-
 VARIANTS = ("gloverec", "lerobot_save_in_loop", "loop_only")
 
 
 def session(tmp: str, **cfg) -> tuple[float, int, list[dict]]:
-    rec = Recorder(RecordConfig.load(root=f"{tmp}/ds{time.monotonic_ns()}", repo_id="bench/record", **cfg),
-                   out=None)
+    rec = Recorder(RecordConfig.load(root=f"{tmp}/ds{time.monotonic_ns()}", repo_id="bench/record", **cfg), out=None)
     t = time.perf_counter()
     summary = rec.run()
     wall = time.perf_counter() - t
@@ -105,24 +103,40 @@ def realtime(seconds: float, fps: int = 100) -> dict:
     episode_s = 10.0
     with tempfile.TemporaryDirectory() as tmp:
         link = f"{tmp}/glove"
-        emu = subprocess.Popen([sys.executable, "-m", "recorder.cli", "emulate", "--rate", "200", "--link", link,
-                                "--motion", "random"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        emu = subprocess.Popen(
+            [sys.executable, "-m", "recorder.cli", "emulate", "--rate", "200", "--link", link, "--motion", "random"],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         emu.stdout.readline()
         try:
-            wall, frames, side = session(tmp, glove=f"serial:{link}", episodes=max(1, round(seconds / episode_s)),
-                                         episode_time_s=episode_s, reset_time_s=0.2, fps=fps, realtime=True,
-                                         log=True)
+            wall, frames, side = session(
+                tmp,
+                glove=f"serial:{link}",
+                episodes=max(1, round(seconds / episode_s)),
+                episode_time_s=episode_s,
+                reset_time_s=0.2,
+                fps=fps,
+                realtime=True,
+                log=True,
+            )
         finally:
             emu.terminate()
             emu.communicate(timeout=10)
-    return {"fps": fps, "recorded_s": round(frames / fps, 1), "wall_s": round(wall, 1), "frames": frames,
-            "glove_dropped": sum(s["glove_dropped"] for s in side),
-            "glove_late": sum(s["glove_late"] for s in side),
-            "loop_overruns": sum(s["loop_overruns"] for s in side),
-            "jitter_ms_p99_worst_episode": max(s["jitter_ms_p99"] for s in side),
-            "jitter_ms_p99_median_episode": statistics.median(s["jitter_ms_p99"] for s in side),
-            "latency_ms_p99_worst_episode": max(s["latency_ms_p99"] for s in side),
-            "latency_ms_p50_median_episode": statistics.median(s["latency_ms_p50"] for s in side)}
+    return {
+        "fps": fps,
+        "recorded_s": round(frames / fps, 1),
+        "wall_s": round(wall, 1),
+        "frames": frames,
+        "glove_dropped": sum(s["glove_dropped"] for s in side),
+        "glove_late": sum(s["glove_late"] for s in side),
+        "loop_overruns": sum(s["loop_overruns"] for s in side),
+        "jitter_ms_p99_worst_episode": max(s["jitter_ms_p99"] for s in side),
+        "jitter_ms_p99_median_episode": statistics.median(s["jitter_ms_p99"] for s in side),
+        "latency_ms_p99_worst_episode": max(s["latency_ms_p99"] for s in side),
+        "latency_ms_p50_median_episode": statistics.median(s["latency_ms_p50"] for s in side),
+    }
 
 
 def main() -> None:
@@ -136,12 +150,15 @@ def main() -> None:
     import json
 
     from _common import RESULTS
+
     last = json.loads((RESULTS / "record.json").read_text()) if (RESULTS / "record.json").exists() else {}
     if args.realtime_only:
         results = {k: v for k, v in last.items() if k.startswith("fast_")}
     else:
-        results = {"fast_state_only": fast(args.runs, [], args.episodes),
-                   "fast_one_camera_128": fast(args.runs, ["front"], args.episodes)}
+        results = {
+            "fast_state_only": fast(args.runs, [], args.episodes),
+            "fast_one_camera_128": fast(args.runs, ["front"], args.episodes),
+        }
     print(results)
     results["realtime_100hz"] = last["realtime_100hz"] if args.fast_only else realtime(args.realtime_s)
     print(results["realtime_100hz"])

@@ -28,11 +28,18 @@ def make(task: str, robot: str = "glovehand", **kwargs) -> gym.Env:
 
 
 def _register() -> None:
-    for task, env_id, entry in (("pose", ENV_IDS["pose"], "envs.tasks.hand_pose:HandPoseEnv"),
-                                ("grasp", ENV_IDS["grasp"], "envs.tasks.hand_grasp:HandGraspEnv")):
+    for env_id, entry in (
+        (ENV_IDS["pose"], "envs.tasks.hand_pose:HandPoseEnv"),
+        (ENV_IDS["grasp"], "envs.tasks.hand_grasp:HandGraspEnv"),
+    ):
         if env_id not in gym.registry:
-            gym.register(id=env_id, entry_point=entry, kwargs={"robot": "glovehand"},
-                         disable_env_checker=True, order_enforce=False)
+            gym.register(
+                id=env_id,
+                entry_point=entry,
+                kwargs={"robot": "glovehand"},
+                disable_env_checker=True,
+                order_enforce=False,
+            )
 
 
 _register()

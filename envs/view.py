@@ -35,8 +35,7 @@ def add_parser(subparsers):
     v.add_argument("--task", default="pose", choices=tuple(TASKS))
     v.add_argument("--mode", default="joint", choices=("joint", "ik"), help="retargeting mode")
     v.add_argument("--video", metavar="FILE.mp4", help="render to this video instead of a window")
-    v.add_argument("--duration", type=float, help="seconds (default: until Ctrl-C; 10 s for a video "
-                   "from the emulator)")
+    v.add_argument("--duration", type=float, help="seconds (default: until Ctrl-C; 10 s for a video from the emulator)")
     v.add_argument("--camera", default="front", help="camera for the video (front, top, side)")
     v.set_defaults(func=run)
     return v
@@ -103,8 +102,7 @@ def run(args) -> int:
             raise GloverecError(f"no pose frames from {args.glove} in 5 s: is it a glove in pose mode?")
         if headless:
             steps = _to_video(env, retarget, glove, args.video, duration, args.camera)
-            print(f"view: {steps} frames of {args.robot} ({args.task}) to {args.video}, "
-                  f"{glove.frames} glove frames")
+            print(f"view: {steps} frames of {args.robot} ({args.task}) to {args.video}, {glove.frames} glove frames")
         else:
             _interactive(env, retarget, glove, duration)
     except KeyboardInterrupt:

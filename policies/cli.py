@@ -2,8 +2,9 @@
 and .replay.
 
 ``add_parsers(subparsers)`` adds the three commands to the `gloverec` subparsers (recorder/cli.py); each
-handler returns the exit code or raises GloverecError (one line, exit 1). With ``--json`` stdout carries exactly one JSON object
-(everything else, lerobot's chatter included, goes to stderr). Heavy modules load inside the handlers.
+handler returns the exit code or raises GloverecError (one line, exit 1). With ``--json`` stdout carries
+exactly one JSON object (everything else, lerobot's chatter included, goes to stderr). Heavy modules load inside
+the handlers.
 """
 
 from __future__ import annotations
@@ -39,23 +40,36 @@ def add_parsers(subparsers) -> None:
     t.add_argument("--seed", type=int, help="initialisation, split and batch order")
     t.add_argument("--save-every", type=positive_int, help="a checkpoint every N steps (default 1000), and at the end")
     t.add_argument("--val-fraction", type=float, help="share of episodes held out for validation (default 0.1)")
-    t.add_argument("--all-episodes", action="store_true",
-                   help="train on failed demonstrations too (default: only those marked successful)")
+    t.add_argument(
+        "--all-episodes",
+        action="store_true",
+        help="train on failed demonstrations too (default: only those marked successful)",
+    )
     t.add_argument("--config", help="a train YAML (default: configs/train/<policy>.yaml)")
-    t.add_argument("--threads", type=positive_int, default=1,
-                   help="torch CPU threads (default 1: fastest for small MLPs, and safe on a busy machine)")
+    t.add_argument(
+        "--threads",
+        type=positive_int,
+        default=1,
+        help="torch CPU threads (default 1: fastest for small MLPs, and safe on a busy machine)",
+    )
     t.add_argument("--json", action="store_true", help="print one JSON object at the end")
     t.set_defaults(func=cmd_train)
 
     e = subparsers.add_parser("eval", help="evaluate a policy in the simulated task: success rate, returns, videos")
-    e.add_argument("--policy", required=True,
-                   help="a LeRobot checkpoint (pretrained_model, checkpoint or training output folder), "
-                        "or 'demonstrator' / 'random' for the scripted demonstrator / random actions")
+    e.add_argument(
+        "--policy",
+        required=True,
+        help="a LeRobot checkpoint (pretrained_model, checkpoint or training output folder), "
+        "or 'demonstrator' / 'random' for the scripted demonstrator / random actions",
+    )
     e.add_argument("--task", help="pose or grasp (default: the policy's training task)")
     e.add_argument("--robot", help="glovehand or shadow (default: the policy's training robot)")
     e.add_argument("--episodes", type=positive_int, default=50, help="episodes (default 50)")
-    e.add_argument("--seed", type=natural, help="seed of the first episode, then +1 each (default 100000, "
-                                                 "away from the recorder's seeds 0, 1, ...)")
+    e.add_argument(
+        "--seed",
+        type=natural,
+        help="seed of the first episode, then +1 each (default 100000, away from the recorder's seeds 0, 1, ...)",
+    )
     e.add_argument("--video", metavar="DIR", help="write videos of the first episodes here (mp4)")
     e.add_argument("--videos", type=natural, default=2, help="how many episodes to film (default 2)")
     e.add_argument("--threads", type=positive_int, default=1, help="torch CPU threads (default 1)")
@@ -94,23 +108,37 @@ def cmd_train(args: argparse.Namespace) -> int:
     from policies.data import resolve
     from policies.train import TrainConfig, train
 
-    cfg = TrainConfig.load(args.config, policy=args.policy, steps=args.steps, batch_size=args.batch_size,
-                           lr=args.lr, seed=args.seed, val_fraction=args.val_fraction, save_every=args.save_every,
-                           successful_only=False if args.all_episodes else None)
+    cfg = TrainConfig.load(
+        args.config,
+        policy=args.policy,
+        steps=args.steps,
+        batch_size=args.batch_size,
+        lr=args.lr,
+        seed=args.seed,
+        val_fraction=args.val_fraction,
+        save_every=args.save_every,
+        successful_only=False if args.all_episodes else None,
+    )
     ref = resolve(args.repo_id, args.hub, args.root, args.version)
     with _quiet_stdout(args.json):
         _setup(args.threads)
-        summary = train(ref, args.out, cfg, policy=args.policy, resume=args.resume,
-                        progress=sys.stderr.isatty() or not args.json)
+        summary = train(
+            ref, args.out, cfg, policy=args.policy, resume=args.resume, progress=sys.stderr.isatty() or not args.json
+        )
     if args.json:
         print(json.dumps(summary))
     else:
         val = summary["final_val_loss"]
-        span = (f"from step {summary['start_step']} to {summary['steps']}" if summary["start_step"]
-                else f"for {summary['steps']} steps")
-        print(f"trained {summary['policy_type']} {span} on {summary['train_episodes']} episodes "
-              f"of {ref.repo_id} in {summary['wall_s']:.0f} s: train loss {summary['final_train_loss']:.4f}, "
-              f"validation loss {'-' if val is None else f'{val:.4f}'} ({summary['val_episodes']} held-out episodes)")
+        span = (
+            f"from step {summary['start_step']} to {summary['steps']}"
+            if summary["start_step"]
+            else f"for {summary['steps']} steps"
+        )
+        print(
+            f"trained {summary['policy_type']} {span} on {summary['train_episodes']} episodes "
+            f"of {ref.repo_id} in {summary['wall_s']:.0f} s: train loss {summary['final_train_loss']:.4f}, "
+            f"validation loss {'-' if val is None else f'{val:.4f}'} ({summary['val_episodes']} held-out episodes)"
+        )
         print(f"policy: {summary['policy']}")
         print(f"loss curve: {summary['loss_curve']}")
     return 0
@@ -125,24 +153,42 @@ def cmd_eval(args: argparse.Namespace) -> int:
         if args.policy in ("demonstrator", "random"):
             if not args.task or not args.robot:
                 raise GloverecError(f"--policy {args.policy} needs --task and --robot")
-            env = ev.make_env(args.task, args.robot, render_mode="rgb_array" if args.video else None,
-                              **({"image_size": ev.VIDEO_SIZE} if args.video else {}))
+            env = ev.make_env(
+                args.task,
+                args.robot,
+                render_mode="rgb_array" if args.video else None,
+                **({"image_size": ev.VIDEO_SIZE} if args.video else {}),
+            )
             try:
-                agent = (ev.DemonstratorAgent(args.task, args.robot) if args.policy == "demonstrator"
-                         else ev.RandomAgent())
-                result = {"policy": args.policy, "policy_type": args.policy,
-                          **ev.evaluate(agent, env, args.episodes, seed, args.video, args.videos)}
+                agent = (
+                    ev.DemonstratorAgent(args.task, args.robot) if args.policy == "demonstrator" else ev.RandomAgent()
+                )
+                result = {
+                    "policy": args.policy,
+                    "policy_type": args.policy,
+                    **ev.evaluate(agent, env, args.episodes, seed, args.video, args.videos),
+                }
             finally:
                 env.close()
         else:
-            result = ev.evaluate_checkpoint(args.policy, args.task, args.robot, args.episodes, seed, args.video,
-                                            args.videos, progress=sys.stderr.isatty())
+            result = ev.evaluate_checkpoint(
+                args.policy,
+                args.task,
+                args.robot,
+                args.episodes,
+                seed,
+                args.video,
+                args.videos,
+                progress=sys.stderr.isatty(),
+            )
     if args.json:
         print(json.dumps(result))
     else:
-        print(f"{result['agent']} on {result['task']} ({result['robot']}): success {result['successes']}/"
-              f"{result['episodes']} = {100 * result['success_rate']:.0f} %, mean return {result['mean_return']:.3f}, "
-              f"mean length {result['mean_length']:.1f} steps (seeds {result['seeds'][0]}..{result['seeds'][-1]})")
+        print(
+            f"{result['agent']} on {result['task']} ({result['robot']}): success {result['successes']}/"
+            f"{result['episodes']} = {100 * result['success_rate']:.0f} %, mean return {result['mean_return']:.3f}, "
+            f"mean length {result['mean_length']:.1f} steps (seeds {result['seeds'][0]}..{result['seeds'][-1]})"
+        )
         for path in result["videos"]:
             print(f"video: {path}")
     return 0
@@ -159,17 +205,25 @@ def cmd_replay(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(out))
     else:
-        verdict = ("reproduced exactly" if out["max_abs"] == 0 else "reproduced" if out["reproduced"]
-                   else f"DIVERGED from step {out['first_divergent_step']}")
-        print(f"episode {out['episode']} of {out['repo_id']} ({out['task']} on {out['robot']}, seed {out['seed']}, "
-              f"{out['frames']} frames): {verdict}; state max |diff| {out['state_max_abs']:.3g}, mean "
-              f"{out['state_mean_abs']:.3g}; environment state max {out.get('environment_state_max_abs', 0):.3g}; "
-              f"success recorded {out['recorded_success']}, replayed {out['replayed_success']}")
+        verdict = (
+            "reproduced exactly"
+            if out["max_abs"] == 0
+            else "reproduced"
+            if out["reproduced"]
+            else f"DIVERGED from step {out['first_divergent_step']}"
+        )
+        print(
+            f"episode {out['episode']} of {out['repo_id']} ({out['task']} on {out['robot']}, seed {out['seed']}, "
+            f"{out['frames']} frames): {verdict}; state max |diff| {out['state_max_abs']:.3g}, mean "
+            f"{out['state_mean_abs']:.3g}; environment state max {out.get('environment_state_max_abs', 0):.3g}; "
+            f"success recorded {out['recorded_success']}, replayed {out['replayed_success']}"
+        )
         if out.get("video"):
             print(f"video: {out['video']}")
     if not out["reproduced"]:
-        raise GloverecError(f"the replay of episode {out['episode']} diverged from the recording at step "
-                            f"{out['first_divergent_step']} (max |diff| {out['max_abs']:.3g}): the dataset, the robot "
-                            "or task configs, or the simulator changed since it was recorded")
+        raise GloverecError(
+            f"the replay of episode {out['episode']} diverged from the recording at step "
+            f"{out['first_divergent_step']} (max |diff| {out['max_abs']:.3g}): the dataset, the robot "
+            "or task configs, or the simulator changed since it was recorded"
+        )
     return 0
-

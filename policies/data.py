@@ -20,21 +20,25 @@ import torch
 
 from recorder import GloverecError
 
-MIN_STD = 1e-3   # floor of the normalisation std: features (nearly) constant in the demonstrations stay O(1)
+MIN_STD = 1e-3  # floor of the normalisation std: features (nearly) constant in the demonstrations stay O(1)
 
 
 @dataclass(frozen=True)
 class DatasetRef:
     repo_id: str
     root: Path
-    version: str | None = None   # the hub version (vN) when it came from the hub
+    version: str | None = None  # the hub version (vN) when it came from the hub
 
     def as_dict(self) -> dict:
         return {"repo_id": self.repo_id, "root": str(self.root), "version": self.version}
 
 
-def resolve(repo_id: str, hub: str | os.PathLike | None = None, root: str | os.PathLike | None = None,
-            version: str | None = None) -> DatasetRef:
+def resolve(
+    repo_id: str,
+    hub: str | os.PathLike | None = None,
+    root: str | os.PathLike | None = None,
+    version: str | None = None,
+) -> DatasetRef:
     """The dataset ``repo_id``: ``root`` if given (a recording, e.g. datasets/recordings/USER/NAME), else its
     version in the local hub (the newest unless ``version``); a GloverecError says what is missing."""
     from recorder.hub.names import parse_repo_id
@@ -92,15 +96,21 @@ def split_episodes(meta, root: Path, val_fraction: float, seed: int, successful_
     order = [int(e) for e in rng.permutation(episodes)]
     n_val = 0 if len(order) < 2 or val_fraction <= 0 else max(1, int(round(val_fraction * len(order))))
     n_val = min(n_val, len(order) - 1)
-    return sorted(order[: len(order) - n_val]), sorted(order[len(order) - n_val:])
+    return sorted(order[: len(order) - n_val]), sorted(order[len(order) - n_val :])
 
 
 class FrameCache:
     """Every frame of some episodes as stacked tensors: the policy's inputs, ``action`` (chunks) and
     ``action_is_pad``. ``batch(indices)`` gives a training batch; images come back as float in [0, 1]."""
 
-    def __init__(self, ref: DatasetRef, episodes: list[int], keys: list[str], delta_timestamps: dict | None,
-                 progress: bool = True):
+    def __init__(
+        self,
+        ref: DatasetRef,
+        episodes: list[int],
+        keys: list[str],
+        delta_timestamps: dict | None,
+        progress: bool = True,
+    ):
         from lerobot.datasets.lerobot_dataset import LeRobotDataset
         from tqdm import tqdm
 
@@ -108,12 +118,18 @@ class FrameCache:
         self.data: dict[str, torch.Tensor] = {}
         if not episodes:
             return
-        ds = LeRobotDataset(ref.repo_id, root=ref.root, episodes=self.episodes, delta_timestamps=delta_timestamps,
-                            video_backend=video_backend() if _has_videos(ref.root) else None)
+        ds = LeRobotDataset(
+            ref.repo_id,
+            root=ref.root,
+            episodes=self.episodes,
+            delta_timestamps=delta_timestamps,
+            video_backend=video_backend() if _has_videos(ref.root) else None,
+        )
         wanted = [k for k in (*keys, "action_is_pad") if k in ds.features or k == "action_is_pad"]
         columns: dict[str, list] = {k: [] for k in wanted}
-        for i in tqdm(range(len(ds)), desc=f"loading {len(episodes)} episode(s)", unit="frame",
-                      disable=not progress, leave=False):
+        for i in tqdm(
+            range(len(ds)), desc=f"loading {len(episodes)} episode(s)", unit="frame", disable=not progress, leave=False
+        ):
             item = ds[i]
             for k in wanted:
                 if k in item:
@@ -146,7 +162,7 @@ class FrameCache:
                 continue
             x = self.data[k]
             if k == "action" and x.dim() == 3:
-                x = x[:, 0]           # the frame's own action: every recorded action exactly once
+                x = x[:, 0]  # the frame's own action: every recorded action exactly once
             s = get_feature_stats(x.numpy().astype(np.float64), axis=0, keepdims=False)
             s["std"] = np.maximum(s["std"], MIN_STD)
             out[k] = s

@@ -25,11 +25,12 @@ import numpy as np
 
 from recorder import GloverecError
 
-EVAL_SEED = 100_000     # recordings use seeds 0, 1, ... by default: evaluation episodes are never training ones
+EVAL_SEED = 100_000  # recordings use seeds 0, 1, ... by default: evaluation episodes are never training ones
 VIDEO_SIZE = (384, 512)  # (H, W), multiples of 16 for the codec; of videos when the policy has no cameras of its own
 
 
 # ---------------------------------------------------------------- agents
+
 
 class PolicyAgent:
     """A LeRobot policy with its processors, acting on gloverec observations."""
@@ -100,14 +101,17 @@ class RandomAgent:
 
 # ---------------------------------------------------------------- loading checkpoints
 
+
 def find_pretrained(path: str | Path) -> Path:
     """The pretrained_model folder of ``path``: itself, PATH/pretrained_model or PATH/checkpoints/last/..."""
     p = Path(path)
     for c in (p, p / "pretrained_model", p / "checkpoints" / "last" / "pretrained_model"):
         if (c / "config.json").is_file() and (c / "model.safetensors").is_file():
-            return c.resolve()   # checkpoints/last moves on as training goes on: report the step's folder
-    raise GloverecError(f"{path} holds no LeRobot policy (config.json + model.safetensors): give a "
-                        "pretrained_model folder, a checkpoint folder or a training output folder")
+            return c.resolve()  # checkpoints/last moves on as training goes on: report the step's folder
+    raise GloverecError(
+        f"{path} holds no LeRobot policy (config.json + model.safetensors): give a "
+        "pretrained_model folder, a checkpoint folder or a training output folder"
+    )
 
 
 def policy_context(pretrained: Path) -> dict:
@@ -128,9 +132,13 @@ def policy_context(pretrained: Path) -> dict:
         info = dataset_info(root)
         side = sidecar(root)
         first = side[min(side)] if side else {}
-        ctx.update(fps=info.get("fps"), robot=info.get("robot_type") or first.get("robot"),
-                   task=first.get("env_task"), dataset={"repo_id": ds.get("repo_id"), "root": str(root)},
-                   names={k: v.get("names") for k, v in info.get("features", {}).items()})
+        ctx.update(
+            fps=info.get("fps"),
+            robot=info.get("robot_type") or first.get("robot"),
+            task=first.get("env_task"),
+            dataset={"repo_id": ds.get("repo_id"), "root": str(root)},
+            names={k: v.get("names") for k, v in info.get("features", {}).items()},
+        )
     return ctx
 
 
@@ -148,24 +156,29 @@ def load_policy(path: str | Path, device: str = "cpu") -> PolicyAgent:
     except ValueError as exc:
         raise GloverecError(f"{pretrained}/config.json is not JSON: {exc}") from None
     if kind not in PreTrainedConfig.get_known_choices():
-        raise GloverecError(f"{pretrained} is a policy of type {kind!r}, which LeRobot does not know here "
-                            f"(known: {', '.join(sorted(PreTrainedConfig.get_known_choices()))})")
+        raise GloverecError(
+            f"{pretrained} is a policy of type {kind!r}, which LeRobot does not know here "
+            f"(known: {', '.join(sorted(PreTrainedConfig.get_known_choices()))})"
+        )
     try:
         cfg = PreTrainedConfig.from_pretrained(pretrained, cli_overrides=[f"--device={device}"])
         cfg.pretrained_path = pretrained
-        with contextlib.redirect_stdout(io.StringIO()):   # lerobot prints "Loading weights from local directory"
+        with contextlib.redirect_stdout(io.StringIO()):  # lerobot prints "Loading weights from local directory"
             policy = get_policy_class(kind).from_pretrained(pretrained, config=cfg)
         steps = json.loads((pretrained / "policy_preprocessor.json").read_text()).get("steps", [])
-        overrides = ({"device_processor": {"device": device}}
-                     if any(s.get("registry_name") == "device_processor" for s in steps) else {})
-        pre, post = make_pre_post_processors(cfg, pretrained_path=str(pretrained),
-                                             preprocessor_overrides=overrides)
+        overrides = (
+            {"device_processor": {"device": device}}
+            if any(s.get("registry_name") == "device_processor" for s in steps)
+            else {}
+        )
+        pre, post = make_pre_post_processors(cfg, pretrained_path=str(pretrained), preprocessor_overrides=overrides)
     except (OSError, ValueError, KeyError, draccus.utils.ParsingError) as exc:
         raise GloverecError(f"cannot load the policy in {pretrained}: {exc}") from None
     return PolicyAgent(policy, pre, post, pretrained, policy_context(pretrained))
 
 
 # ---------------------------------------------------------------- features
+
 
 def consumed_features(cfg) -> dict:
     """The inputs a LeRobot policy reads: observation.state, the environment state and the images.
@@ -192,8 +205,10 @@ def env_options(agent: PolicyAgent, video: bool) -> dict:
 
         bad = [c for c in cams if c not in CAMERAS]
         if bad:
-            raise GloverecError(f"the policy reads observation.images.{bad[0]}, a camera the environments do not "
-                                f"have (they have {', '.join(CAMERAS)})")
+            raise GloverecError(
+                f"the policy reads observation.images.{bad[0]}, a camera the environments do not "
+                f"have (they have {', '.join(CAMERAS)})"
+            )
         shape = agent.inputs[f"observation.images.{cams[0]}"].shape
         opts.update(cameras=tuple(cams), image_size=(int(shape[1]), int(shape[2])))
     elif video:
@@ -207,8 +222,11 @@ def check_features(agent: PolicyAgent, env, task: str, robot: str) -> None:
     where = f"{task} on {robot}"
     spaces = env.observation_space.spaces
     names = agent.context.get("names") or {}
-    env_names = {"observation.state": u.state_names, "observation.environment_state": u.environment_state_names,
-                 "action": u.action_names}
+    env_names = {
+        "observation.state": u.state_names,
+        "observation.environment_state": u.environment_state_names,
+        "action": u.action_names,
+    }
     expected = {**agent.inputs, "action": agent.policy.config.action_feature}
     for key, ft in expected.items():
         if ft is None:
@@ -216,8 +234,10 @@ def check_features(agent: PolicyAgent, env, task: str, robot: str) -> None:
         if key == "action":
             have = tuple(env.action_space.shape)
         elif key not in spaces:
-            raise GloverecError(f"feature {key} differs: the policy reads it but {where} does not observe it "
-                                f"(it observes {', '.join(sorted(spaces))})")
+            raise GloverecError(
+                f"feature {key} differs: the policy reads it but {where} does not observe it "
+                f"(it observes {', '.join(sorted(spaces))})"
+            )
         else:
             have = tuple(spaces[key].shape)
             if key.startswith("observation.images."):
@@ -228,11 +248,14 @@ def check_features(agent: PolicyAgent, env, task: str, robot: str) -> None:
         mine, theirs = names.get(key), env_names.get(key)
         if mine and theirs and list(mine) != list(theirs):
             i = next(i for i, (a, b) in enumerate(zip(mine, theirs)) if a != b)
-            raise GloverecError(f"feature {key} differs: element {i} is {mine[i]!r} for the policy but {theirs[i]!r} "
-                                f"in {where} (trained on another robot or task?)")
+            raise GloverecError(
+                f"feature {key} differs: element {i} is {mine[i]!r} for the policy but {theirs[i]!r} "
+                f"in {where} (trained on another robot or task?)"
+            )
 
 
 # ---------------------------------------------------------------- the harness
+
 
 def make_env(task: str, robot: str, **options):
     import envs
@@ -243,8 +266,15 @@ def make_env(task: str, robot: str, **options):
         raise GloverecError(str(exc)) from None
 
 
-def evaluate(agent, env, episodes: int, seed: int = EVAL_SEED, video_dir: str | Path | None = None,
-             videos: int = 2, progress: bool = False) -> dict:
+def evaluate(
+    agent,
+    env,
+    episodes: int,
+    seed: int = EVAL_SEED,
+    video_dir: str | Path | None = None,
+    videos: int = 2,
+    progress: bool = False,
+) -> dict:
     """Run ``episodes`` episodes (seeds seed, seed+1, ...); videos of the first ``videos`` into ``video_dir``."""
     from tqdm import tqdm
 
@@ -270,20 +300,34 @@ def evaluate(agent, env, episodes: int, seed: int = EVAL_SEED, video_dir: str | 
             if terminated or truncated:
                 break
         ok = bool(info["is_success"])
-        runs.append({"seed": s, "success": ok, "return": round(ret, 4), "length": steps,
-                     **{key: info[key] for key in ("goal", "object") if key in info}})
+        runs.append(
+            {
+                "seed": s,
+                "success": ok,
+                "return": round(ret, 4),
+                "length": steps,
+                **{key: info[key] for key in ("goal", "object") if key in info},
+            }
+        )
         if filming:
             name = f"episode{k:03d}_seed{s}_{'success' if ok else 'failure'}.mp4"
             paths.append(str(_write_video(Path(video_dir) / name, frames, fps)))
     n = len(runs)
-    return {"agent": agent.name, "task": u.task_name, "robot": u.robot.config.name, "episodes": n,
-            "seeds": [seed, seed + n - 1] if n else [],
-            "success_rate": round(sum(r["success"] for r in runs) / n, 4) if n else 0.0,
-            "successes": sum(r["success"] for r in runs),
-            "mean_return": round(float(np.mean([r["return"] for r in runs])), 4) if n else 0.0,
-            "mean_length": round(float(np.mean([r["length"] for r in runs])), 2) if n else 0.0,
-            "episode_lengths": [r["length"] for r in runs], "videos": paths, "runs": runs,
-            "wall_s": round(time.perf_counter() - t0, 2)}
+    return {
+        "agent": agent.name,
+        "task": u.task_name,
+        "robot": u.robot.config.name,
+        "episodes": n,
+        "seeds": [seed, seed + n - 1] if n else [],
+        "success_rate": round(sum(r["success"] for r in runs) / n, 4) if n else 0.0,
+        "successes": sum(r["success"] for r in runs),
+        "mean_return": round(float(np.mean([r["return"] for r in runs])), 4) if n else 0.0,
+        "mean_length": round(float(np.mean([r["length"] for r in runs])), 2) if n else 0.0,
+        "episode_lengths": [r["length"] for r in runs],
+        "videos": paths,
+        "runs": runs,
+        "wall_s": round(time.perf_counter() - t0, 2),
+    }
 
 
 def _write_video(path: Path, frames: list, fps: float) -> Path:
@@ -293,8 +337,16 @@ def _write_video(path: Path, frames: list, fps: float) -> Path:
     return path
 
 
-def evaluate_checkpoint(path: str | Path, task: str | None, robot: str | None, episodes: int,
-                        seed: int = EVAL_SEED, video_dir=None, videos: int = 2, progress: bool = False) -> dict:
+def evaluate_checkpoint(
+    path: str | Path,
+    task: str | None,
+    robot: str | None,
+    episodes: int,
+    seed: int = EVAL_SEED,
+    video_dir=None,
+    videos: int = 2,
+    progress: bool = False,
+) -> dict:
     """Load a checkpoint, build the environment it needs, check the features, evaluate."""
     agent = load_policy(path)
     task = task or agent.context.get("task")
@@ -321,5 +373,8 @@ def _warn_seed_overlap(context: dict, seed: int, episodes: int) -> None:
     used = {e.get("seed") for e in sidecar(Path(root)).values()}
     overlap = used & set(range(seed, seed + episodes))
     if overlap:
-        print(f"warning: {len(overlap)} evaluation seed(s) are seeds of training episodes (e.g. {min(overlap)}): "
-              "pass another --seed to evaluate on unseen episodes", file=sys.stderr)
+        print(
+            f"warning: {len(overlap)} evaluation seed(s) are seeds of training episodes (e.g. {min(overlap)}): "
+            "pass another --seed to evaluate on unseen episodes",
+            file=sys.stderr,
+        )

@@ -14,15 +14,16 @@ from pathlib import Path
 
 import numpy as np
 
-from recorder import GloverecError
 from policies.data import DatasetRef, dataset_info, sidecar, video_backend
+from recorder import GloverecError
 
-TOLERANCE = 1e-5   # float32 rounding; a replay within it reproduces the recording
+TOLERANCE = 1e-5  # float32 rounding; a replay within it reproduces the recording
 COMPARED = ("observation.state", "observation.environment_state")
 
 
-def replay(ref: DatasetRef, episode: int, video: str | Path | None = None, task: str | None = None,
-           robot: str | None = None) -> dict:
+def replay(
+    ref: DatasetRef, episode: int, video: str | Path | None = None, task: str | None = None, robot: str | None = None
+) -> dict:
     info = dataset_info(ref.root)
     total = info.get("total_episodes", 0)
     if not 0 <= episode < total:
@@ -30,8 +31,10 @@ def replay(ref: DatasetRef, episode: int, video: str | Path | None = None, task:
         raise GloverecError(f"{ref.repo_id} has no episode {episode} ({have})")
     meta = sidecar(ref.root).get(episode)
     if meta is None or meta.get("seed") is None:
-        raise GloverecError(f"episode {episode} of {ref.repo_id} has no seed in {ref.root}/meta/gloverec "
-                            "(not recorded by gloverec): it cannot be replayed")
+        raise GloverecError(
+            f"episode {episode} of {ref.repo_id} has no seed in {ref.root}/meta/gloverec "
+            "(not recorded by gloverec): it cannot be replayed"
+        )
     task = task or meta.get("env_task")
     robot = robot or meta.get("robot") or info.get("robot_type")
     if not task or not robot:
@@ -45,7 +48,7 @@ def replay(ref: DatasetRef, episode: int, video: str | Path | None = None, task:
 
     t0 = time.perf_counter()
     ds = LeRobotDataset(ref.repo_id, root=ref.root, episodes=[episode], video_backend=video_backend())
-    rows = ds.hf_dataset   # the episode's rows, without decoding any video
+    rows = ds.hf_dataset  # the episode's rows, without decoding any video
     rows.set_format("torch", columns=[c for c in (*COMPARED, "action", "episode_index") if c in rows.column_names])
     frames = [rows[i] for i in range(len(rows))]
     if not frames or any(int(f["episode_index"]) != episode for f in frames):
@@ -53,14 +56,21 @@ def replay(ref: DatasetRef, episode: int, video: str | Path | None = None, task:
     recorded = {k: np.stack([f[k].numpy() for f in frames]) for k in COMPARED if k in frames[0]}
     actions = np.stack([f["action"].numpy() for f in frames])
 
-    env = make_env(task, robot, control_hz=fps, render_mode="rgb_array" if video else None,
-                   **({"image_size": VIDEO_SIZE} if video else {}))
+    env = make_env(
+        task,
+        robot,
+        control_hz=fps,
+        render_mode="rgb_array" if video else None,
+        **({"image_size": VIDEO_SIZE} if video else {}),
+    )
     try:
         obs, _ = env.reset(seed=int(meta["seed"]))
         for k in recorded:
             if obs[k].shape != recorded[k].shape[1:]:
-                raise GloverecError(f"{k} differs: the dataset has shape {recorded[k].shape[1:]}, {task} on {robot} "
-                                    f"gives {obs[k].shape}")
+                raise GloverecError(
+                    f"{k} differs: the dataset has shape {recorded[k].shape[1:]}, {task} on {robot} "
+                    f"gives {obs[k].shape}"
+                )
         replayed = {k: [] for k in recorded}
         film = [env.render()] if video else None
         success = False
@@ -74,8 +84,16 @@ def replay(ref: DatasetRef, episode: int, video: str | Path | None = None, task:
     finally:
         env.close()
 
-    out = {"repo_id": ref.repo_id, "root": str(ref.root), "episode": episode, "seed": int(meta["seed"]),
-           "task": task, "robot": robot, "fps": fps, "frames": len(actions)}
+    out = {
+        "repo_id": ref.repo_id,
+        "root": str(ref.root),
+        "episode": episode,
+        "seed": int(meta["seed"]),
+        "task": task,
+        "robot": robot,
+        "fps": fps,
+        "frames": len(actions),
+    }
     per_step_max = np.zeros(len(actions))
     for k in recorded:
         d = np.abs(np.stack(replayed[k]).astype(np.float64) - recorded[k].astype(np.float64))
@@ -84,11 +102,15 @@ def replay(ref: DatasetRef, episode: int, video: str | Path | None = None, task:
         out[f"{short}_mean_abs"] = float(d.mean()) if d.size else 0.0
         per_step_max = np.maximum(per_step_max, d.max(axis=1) if d.shape[1] else 0.0)
     over = np.flatnonzero(per_step_max > TOLERANCE)
-    out.update(max_abs=float(per_step_max.max()) if len(per_step_max) else 0.0,
-               max_abs_per_step=[float(x) for x in per_step_max],
-               first_divergent_step=int(over[0]) if len(over) else None,
-               reproduced=not len(over), recorded_success=meta.get("success"), replayed_success=success,
-               wall_s=round(time.perf_counter() - t0, 2))
+    out.update(
+        max_abs=float(per_step_max.max()) if len(per_step_max) else 0.0,
+        max_abs_per_step=[float(x) for x in per_step_max],
+        first_divergent_step=int(over[0]) if len(over) else None,
+        reproduced=not len(over),
+        recorded_success=meta.get("success"),
+        replayed_success=success,
+        wall_s=round(time.perf_counter() - t0, 2),
+    )
     if video:
         out["video"] = str(_write_video(Path(video), film, fps))
     return out

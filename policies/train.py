@@ -26,9 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
+from policies.data import DatasetRef, FrameCache, load_meta, sidecar, split_episodes, video_backend
 from recorder import GloverecError
 from recorder.settings import load_values
-from policies.data import DatasetRef, FrameCache, load_meta, sidecar, split_episodes, video_backend
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs" / "train"
 POLICY_TYPES = {"bc": "gloverec_bc"}
@@ -40,16 +40,16 @@ class TrainConfig:
 
     steps: int = 3000
     batch_size: int = 256
-    lr: float | None = None            # None: the policy's preset
+    lr: float | None = None  # None: the policy's preset
     seed: int = 0
     val_fraction: float = 0.1
-    successful_only: bool = True       # train on the episodes the recorder marked successful
-    val_every: int | None = None       # None: steps / 20
-    save_every: int | None = None      # None: only at the end
-    policy: dict = field(default_factory=dict)   # fields of the policy's LeRobot config (BCConfig)
+    successful_only: bool = True  # train on the episodes the recorder marked successful
+    val_every: int | None = None  # None: steps / 20
+    save_every: int | None = None  # None: only at the end
+    policy: dict = field(default_factory=dict)  # fields of the policy's LeRobot config (BCConfig)
 
     @classmethod
-    def load(cls, path: str | Path | None = None, policy: str = "bc", **overrides) -> "TrainConfig":
+    def load(cls, path: str | Path | None = None, policy: str = "bc", **overrides) -> TrainConfig:
         source = Path(path) if path else CONFIGS / f"{policy}.yaml"
         values = load_values(cls, source, bool(path), overrides, "train")
         cfg = cls(**values)
@@ -86,13 +86,14 @@ def _policy_config(policy: str, cfg: TrainConfig):
         raise GloverecError(f"bad {policy} policy setting: {exc}") from None
 
 
-def train(ref: DatasetRef, out: str | Path, cfg: TrainConfig, policy: str = "bc", resume: bool = False,
-          progress: bool = True) -> dict:
+def train(
+    ref: DatasetRef, out: str | Path, cfg: TrainConfig, policy: str = "bc", resume: bool = False, progress: bool = True
+) -> dict:
     """Train (or resume) a policy on ``ref``; returns the summary also written to OUT/train_summary.json."""
     if policy not in POLICY_TYPES:
         raise GloverecError(f"unknown policy {policy!r}; valid: {', '.join(POLICY_TYPES)}")
     out = Path(out)
-    last = out / "checkpoints" / "last"    # lerobot's CHECKPOINTS_DIR / LAST_CHECKPOINT_LINK
+    last = out / "checkpoints" / "last"  # lerobot's CHECKPOINTS_DIR / LAST_CHECKPOINT_LINK
     if resume and not last.exists():
         raise GloverecError(f"nothing to resume in {out}: it has no checkpoints/last")
     if not resume and out.exists() and (not out.is_dir() or any(out.iterdir())):
@@ -129,7 +130,7 @@ def train(ref: DatasetRef, out: str | Path, cfg: TrainConfig, policy: str = "bc"
         policy_cfg = _policy_config(policy, cfg)
         train_eps, val_eps = split_episodes(meta, ref.root, cfg.val_fraction, cfg.seed, cfg.successful_only)
         set_seed(cfg.seed)
-    with contextlib.redirect_stdout(io.StringIO()):   # lerobot prints "Loading weights from local directory"
+    with contextlib.redirect_stdout(io.StringIO()):  # lerobot prints "Loading weights from local directory"
         policy_obj = make_policy(policy_cfg, ds_meta=meta)
     keys = [*policy_obj.config.input_features, "action"]
     delta = resolve_delta_timestamps(policy_obj.config, meta)
@@ -142,18 +143,37 @@ def train(ref: DatasetRef, out: str | Path, cfg: TrainConfig, policy: str = "bc"
         stats = train_cache.stats(keys, meta.stats or {})
         pre, post = make_pre_post_processors(policy_obj.config, dataset_stats=stats)
         out.mkdir(parents=True, exist_ok=True)
-        (out / "split.json").write_text(json.dumps({"dataset": ref.as_dict(), "seed": cfg.seed,
-                                                    "successful_only": cfg.successful_only,
-                                                    "train": train_eps, "validation": val_eps}, indent=1))
+        (out / "split.json").write_text(
+            json.dumps(
+                {
+                    "dataset": ref.as_dict(),
+                    "seed": cfg.seed,
+                    "successful_only": cfg.successful_only,
+                    "train": train_eps,
+                    "validation": val_eps,
+                },
+                indent=1,
+            )
+        )
 
     val_every = cfg.val_every or max(1, cfg.steps // 20)
     tcfg = TrainPipelineConfig(
-        dataset=DatasetConfig(repo_id=ref.repo_id, root=str(ref.root), episodes=train_eps,
-                              video_backend=video_backend()),
-        policy=policy_obj.config, output_dir=out, job_name=f"gloverec_{policy}", resume=resume, seed=cfg.seed,
-        num_workers=0, batch_size=cfg.batch_size, steps=cfg.steps, log_freq=val_every,
-        save_freq=cfg.save_every or cfg.steps, optimizer=policy_obj.config.get_optimizer_preset(),
-        scheduler=policy_obj.config.get_scheduler_preset())
+        dataset=DatasetConfig(
+            repo_id=ref.repo_id, root=str(ref.root), episodes=train_eps, video_backend=video_backend()
+        ),
+        policy=policy_obj.config,
+        output_dir=out,
+        job_name=f"gloverec_{policy}",
+        resume=resume,
+        seed=cfg.seed,
+        num_workers=0,
+        batch_size=cfg.batch_size,
+        steps=cfg.steps,
+        log_freq=val_every,
+        save_freq=cfg.save_every or cfg.steps,
+        optimizer=policy_obj.config.get_optimizer_preset(),
+        scheduler=policy_obj.config.get_scheduler_preset(),
+    )
     optimizer, scheduler = make_optimizer_and_scheduler(tcfg, policy_obj)
     start = 0
     if resume:
@@ -165,11 +185,32 @@ def train(ref: DatasetRef, out: str | Path, cfg: TrainConfig, policy: str = "bc"
     extras = _checkpoint_extras(ref, meta)
     n = len(train_cache)
     policy_obj.train()
-    bar = tqdm(range(start, cfg.steps), initial=start, total=cfg.steps, desc="training", unit="step",
-               disable=not progress, file=sys.stderr)
+    bar = tqdm(
+        range(start, cfg.steps),
+        initial=start,
+        total=cfg.steps,
+        desc="training",
+        unit="step",
+        disable=not progress,
+        file=sys.stderr,
+    )
     try:
-        _loop(bar, train_cache, val_cache, pre, post, policy_obj, optimizer, scheduler, tcfg, cfg, val_every,
-              history, extras, out)
+        _loop(
+            bar,
+            train_cache,
+            val_cache,
+            pre,
+            post,
+            policy_obj,
+            optimizer,
+            scheduler,
+            tcfg,
+            cfg,
+            val_every,
+            history,
+            extras,
+            out,
+        )
     except KeyboardInterrupt:
         bar.close()
         kept = out / CHECKPOINTS_DIR / LAST_CHECKPOINT_LINK
@@ -180,18 +221,30 @@ def train(ref: DatasetRef, out: str | Path, cfg: TrainConfig, policy: str = "bc"
 
     pretrained = (out / CHECKPOINTS_DIR / LAST_CHECKPOINT_LINK).resolve() / PRETRAINED_MODEL_DIR
     final = history[-1] if history else {}
-    summary = {"out": str(out), "policy": str(pretrained), "policy_type": policy_obj.config.type,
-               "dataset": ref.as_dict(), "steps": cfg.steps, "start_step": start,
-               "batch_size": cfg.batch_size, "train_episodes": len(train_eps), "val_episodes": len(val_eps),
-               "train_frames": n, "val_frames": len(val_cache),
-               "final_train_loss": final.get("train_loss"), "final_val_loss": final.get("val_loss"),
-               "loss_curve": str(out / "loss_curve.png"), "wall_s": round(time.perf_counter() - t0, 1)}
+    summary = {
+        "out": str(out),
+        "policy": str(pretrained),
+        "policy_type": policy_obj.config.type,
+        "dataset": ref.as_dict(),
+        "steps": cfg.steps,
+        "start_step": start,
+        "batch_size": cfg.batch_size,
+        "train_episodes": len(train_eps),
+        "val_episodes": len(val_eps),
+        "train_frames": n,
+        "val_frames": len(val_cache),
+        "final_train_loss": final.get("train_loss"),
+        "final_val_loss": final.get("val_loss"),
+        "loss_curve": str(out / "loss_curve.png"),
+        "wall_s": round(time.perf_counter() - t0, 1),
+    }
     (out / "train_summary.json").write_text(json.dumps(summary, indent=1))
     return summary
 
 
-def _loop(bar, train_cache, val_cache, pre, post, policy_obj, optimizer, scheduler, tcfg, cfg, val_every,
-          history, extras, out) -> None:
+def _loop(
+    bar, train_cache, val_cache, pre, post, policy_obj, optimizer, scheduler, tcfg, cfg, val_every, history, extras, out
+) -> None:
     """The training steps from the bar's position to cfg.steps: validation, history and checkpoints."""
     import torch
 
@@ -210,11 +263,16 @@ def _loop(bar, train_cache, val_cache, pre, post, policy_obj, optimizer, schedul
         done = step + 1
         if done % val_every == 0 or done == cfg.steps:
             val = _validation_loss(policy_obj, pre, val_cache, cfg.batch_size)
-            history.append({"step": done, "train_loss": float(np.mean(running)), "val_loss": val,
-                            "lr": optimizer.param_groups[0]["lr"]})
+            history.append(
+                {
+                    "step": done,
+                    "train_loss": float(np.mean(running)),
+                    "val_loss": val,
+                    "lr": optimizer.param_groups[0]["lr"],
+                }
+            )
             running = []
-            bar.set_postfix(train=f"{history[-1]['train_loss']:.4f}",
-                            val="-" if val is None else f"{val:.4f}")
+            bar.set_postfix(train=f"{history[-1]['train_loss']:.4f}", val="-" if val is None else f"{val:.4f}")
         if done % tcfg.save_freq == 0 or done == cfg.steps:
             _save(out, done, tcfg, policy_obj, optimizer, scheduler, pre, post, history, extras)
 
@@ -240,10 +298,13 @@ def _checkpoint_extras(ref: DatasetRef, meta) -> dict:
     """gloverec.json: what `gloverec eval` needs to rebuild the environment and check it matches."""
     side = sidecar(ref.root)
     first = side[min(side)] if side else {}
-    return {"dataset": ref.as_dict(), "fps": meta.fps, "robot": meta.robot_type or first.get("robot"),
-            "task": first.get("env_task"),
-            "names": {k: v.get("names") for k, v in meta.features.items()
-                      if k.startswith("observation.") or k == "action"}}
+    return {
+        "dataset": ref.as_dict(),
+        "fps": meta.fps,
+        "robot": meta.robot_type or first.get("robot"),
+        "task": first.get("env_task"),
+        "names": {k: v.get("names") for k, v in meta.features.items() if k.startswith("observation.") or k == "action"},
+    }
 
 
 def _save(out: Path, step: int, tcfg, policy, optimizer, scheduler, pre, post, history, extras) -> None:
@@ -254,7 +315,7 @@ def _save(out: Path, step: int, tcfg, policy, optimizer, scheduler, pre, post, h
     save_checkpoint(ckpt, step, tcfg, policy, optimizer, scheduler, pre, post)
     (ckpt / PRETRAINED_MODEL_DIR / "gloverec.json").write_text(json.dumps(extras, indent=1))
     (ckpt / "loss_history.json").write_text(json.dumps(history))
-    update_last_checkpoint(ckpt)   # only now: an interrupted save leaves `last` on the previous checkpoint
+    update_last_checkpoint(ckpt)  # only now: an interrupted save leaves `last` on the previous checkpoint
     plot_losses(history, out / "loss_curve.png", title=f"{tcfg.policy.type} on {tcfg.dataset.repo_id}")
 
 
@@ -281,4 +342,3 @@ def plot_losses(history: list[dict], path: Path, title: str = "") -> None:
     fig.savefig(tmp)
     plt.close(fig)
     tmp.replace(path)
-

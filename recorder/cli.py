@@ -41,10 +41,18 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--duration", type=positive_float, help="seconds to stream (default: until killed)")
     e.add_argument("--seed", type=int, default=0)
     e.add_argument("--link", help="also expose the port as this stable symlink (as udev does for real gloves)")
-    e.add_argument("--firmware", action="store_true", help="run the compiled glove core (firmware/) on the "
-                   "synthetic IMUs: the bytes are exactly what the real glove's code sends (builds it with cmake)")
-    e.add_argument("--truth", metavar="FILE.npz", help="on exit, save the ground truth of every frame sent "
-                   "(seq, t_us, joint angles, parent-relative quaternions, fingertips, palm pose)")
+    e.add_argument(
+        "--firmware",
+        action="store_true",
+        help="run the compiled glove core (firmware/) on the "
+        "synthetic IMUs: the bytes are exactly what the real glove's code sends (builds it with cmake)",
+    )
+    e.add_argument(
+        "--truth",
+        metavar="FILE.npz",
+        help="on exit, save the ground truth of every frame sent "
+        "(seq, t_us, joint angles, parent-relative quaternions, fingertips, palm pose)",
+    )
     e.set_defaults(func=cmd_emulate)
 
     m = sub.add_parser("monitor", help="live rate, errors and latency of a glove")
@@ -72,18 +80,32 @@ def build_parser() -> argparse.ArgumentParser:
     b.set_defaults(func=cmd_bridge)
 
     c = sub.add_parser("calibrate", help="walk through the calibration steps and save the glove's calibration")
-    c.add_argument("--glove", required=True, help="emulator (the emulated wearer runs the steps), serial:PORT, "
-                   "a device path, udp:PORT or mcap:FILE (a log of the steps)")
+    c.add_argument(
+        "--glove",
+        required=True,
+        help="emulator (the emulated wearer runs the steps), serial:PORT, "
+        "a device path, udp:PORT or mcap:FILE (a log of the steps)",
+    )
     c.add_argument("--glove-id", type=_glove_id, help="hex id to save under (default: the glove's status frame)")
-    c.add_argument("--dir", help="where calibrations live (default: $GLOVEREC_CALIBRATION_DIR, else "
-                   "datasets/calibration)")
+    c.add_argument(
+        "--dir", help="where calibrations live (default: $GLOVEREC_CALIBRATION_DIR, else datasets/calibration)"
+    )
     c.add_argument("--config", help="fusion config (default configs/fusion/default.yaml)")
-    c.add_argument("--yes", action="store_true", help="do not wait for Enter: each step follows the last "
-                   "(the default when stdin is not a terminal, and for the emulator)")
-    c.add_argument("--attempts", type=positive_int, default=3, help="recordings of step 1 before giving up "
-                   "when the hand moves (default 3)")
-    c.add_argument("--realtime", action="store_true", help="pace the emulator in real time (default: as fast "
-                   "as it is read)")
+    c.add_argument(
+        "--yes",
+        action="store_true",
+        help="do not wait for Enter: each step follows the last "
+        "(the default when stdin is not a terminal, and for the emulator)",
+    )
+    c.add_argument(
+        "--attempts",
+        type=positive_int,
+        default=3,
+        help="recordings of step 1 before giving up when the hand moves (default 3)",
+    )
+    c.add_argument(
+        "--realtime", action="store_true", help="pace the emulator in real time (default: as fast as it is read)"
+    )
     c.add_argument("--json", action="store_true", help="print a JSON summary instead of the table")
     c.set_defaults(func=cmd_calibrate)
 
@@ -122,11 +144,19 @@ def _interrupt(*_):
 
 # ---------------------------------------------------------------- commands
 
+
 def cmd_emulate(args) -> int:
     from recorder.emulator.emulator import Emulator
 
-    emu = Emulator(args.rate, args.mode, args.motion, args.seed, link=args.link, keep_truth=bool(args.truth),
-                   firmware=args.firmware)
+    emu = Emulator(
+        args.rate,
+        args.mode,
+        args.motion,
+        args.seed,
+        link=args.link,
+        keep_truth=bool(args.truth),
+        firmware=args.firmware,
+    )
     try:
         port = emu.plug()
     except OSError as exc:
@@ -141,8 +171,11 @@ def cmd_emulate(args) -> int:
         emu.close()
         if args.truth:
             print(f"ground truth of {emu.save_truth(args.truth)} frames in {args.truth}", file=sys.stderr)
-        print(f"sent {emu.sent_frames} frames, dropped {emu.dropped_frames} behind a slow reader, "
-              f"{emu.unread_frames} with no reader", file=sys.stderr)
+        print(
+            f"sent {emu.sent_frames} frames, dropped {emu.dropped_frames} behind a slow reader, "
+            f"{emu.unread_frames} with no reader",
+            file=sys.stderr,
+        )
     return 0
 
 
@@ -159,9 +192,15 @@ def _glove_id(text: str) -> int:
 def cmd_calibrate(args) -> int:
     from recorder.fusion.procedure import Calibrator, report, summary
 
-    result = Calibrator(args.glove, glove_id=args.glove_id, folder=args.dir, config=args.config,
-                        interactive=False if args.yes else None, attempts=args.attempts,
-                        realtime=args.realtime).run()
+    result = Calibrator(
+        args.glove,
+        glove_id=args.glove_id,
+        folder=args.dir,
+        config=args.config,
+        interactive=False if args.yes else None,
+        attempts=args.attempts,
+        realtime=args.realtime,
+    ).run()
     print(json.dumps(summary(result)) if args.json else report(result))
     return 0
 
@@ -171,14 +210,21 @@ def _finish(monitor, args, what: str) -> int:
     if args.json:
         print(json.dumps(report), flush=True)
     if monitor.samples == 0 and (args.duration is not None or monitor.source.finished):
-        raise GloverecError(f"no glove frames from {monitor.source.name} in {report['duration_s']:.1f} s "
-                            f"({report['bytes']} bytes, {report['errors']} rejected): is it a glove?")
+        raise GloverecError(
+            f"no glove frames from {monitor.source.name} in {report['duration_s']:.1f} s "
+            f"({report['bytes']} bytes, {report['errors']} rejected): is it a glove?"
+        )
     if not args.json:
-        lat = ("-" if report["latency_ms_p50"] is None
-               else f"p50 {report['latency_ms_p50']:.2f} ms, p99 {report['latency_ms_p99']:.2f} ms")
-        print(f"{what}: {report['samples']} samples at {report['rate_hz']:.1f} Hz ({report['protocol']}), "
-              f"{report['errors']} errors, {report['gaps']} gaps, {report['queue_drops']} queue drops, "
-              f"{report['reconnects']} reconnects; latency {lat} ({report['clock']} clock)")
+        lat = (
+            "-"
+            if report["latency_ms_p50"] is None
+            else f"p50 {report['latency_ms_p50']:.2f} ms, p99 {report['latency_ms_p99']:.2f} ms"
+        )
+        print(
+            f"{what}: {report['samples']} samples at {report['rate_hz']:.1f} Hz ({report['protocol']}), "
+            f"{report['errors']} errors, {report['gaps']} gaps, {report['queue_drops']} queue drops, "
+            f"{report['reconnects']} reconnects; latency {lat} ({report['clock']} clock)"
+        )
     return 0
 
 

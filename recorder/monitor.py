@@ -18,7 +18,7 @@ class LinkMonitor:
         self.source = source
         self.latencies_s: list[float] = []
         self.frames = 0
-        self.samples = 0      # pose and raw frames: the ones that carry hand data
+        self.samples = 0  # pose and raw frames: the ones that carry hand data
         self.first_rx: int | None = None
         self.last_rx: int | None = None
         self.started = time.monotonic()
@@ -91,6 +91,8 @@ class LinkMonitor:
         r = self.report()
         lat = "-" if r["latency_ms_p50"] is None else f"{r['latency_ms_p50']:.2f}/{r['latency_ms_p99']:.2f} ms"
         link = "up" if self.source.connected else "DOWN"
-        return (f"{r['protocol'] or 'no frames yet'} {link}  {r['rate_hz']:7.1f} Hz  frames {r['frames']}  "
-                f"errors {r['errors']}  gaps {r['gaps']}  drops {r['queue_drops']}  "
-                f"reconnects {r['reconnects']}  latency p50/p99 {lat}")
+        return (
+            f"{r['protocol'] or 'no frames yet'} {link}  {r['rate_hz']:7.1f} Hz  frames {r['frames']}  "
+            f"errors {r['errors']}  gaps {r['gaps']}  drops {r['queue_drops']}  "
+            f"reconnects {r['reconnects']}  latency p50/p99 {lat}"
+        )

@@ -19,12 +19,15 @@ def mul(p, q) -> np.ndarray:
     q = np.asarray(q, dtype=float)
     pw, px, py, pz = np.moveaxis(p, -1, 0)
     qw, qx, qy, qz = np.moveaxis(q, -1, 0)
-    return np.stack((
-        pw * qw - px * qx - py * qy - pz * qz,
-        pw * qx + px * qw + py * qz - pz * qy,
-        pw * qy - px * qz + py * qw + pz * qx,
-        pw * qz + px * qy - py * qx + pz * qw,
-    ), axis=-1)
+    return np.stack(
+        (
+            pw * qw - px * qx - py * qy - pz * qz,
+            pw * qx + px * qw + py * qz - pz * qy,
+            pw * qy - px * qz + py * qw + pz * qx,
+            pw * qz + px * qy - py * qx + pz * qw,
+        ),
+        axis=-1,
+    )
 
 
 def conj(q) -> np.ndarray:
@@ -57,11 +60,14 @@ def rotate(q, v) -> np.ndarray:
 def to_matrix(q) -> np.ndarray:
     """Rotation matrices (..., 3, 3) whose columns are the frame's axes in the parent frame."""
     w, x, y, z = np.moveaxis(np.asarray(q, dtype=float), -1, 0)
-    return np.stack((
-        np.stack((1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)), axis=-1),
-        np.stack((2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)), axis=-1),
-        np.stack((2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)), axis=-1),
-    ), axis=-2)
+    return np.stack(
+        (
+            np.stack((1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)), axis=-1),
+            np.stack((2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)), axis=-1),
+            np.stack((2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)), axis=-1),
+        ),
+        axis=-2,
+    )
 
 
 def from_rotvec(rv) -> np.ndarray:
@@ -113,9 +119,8 @@ def from_two_vectors(u, v) -> np.ndarray:
     # opposite vectors: half turn about any axis perpendicular to u
     other = np.where(np.abs(u[..., :1]) < 0.9, np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]))
     perp = np.cross(u, other)
-    opposite = (d < -1.0 + 1e-9)
-    q = np.where(opposite, np.concatenate((np.zeros_like(d), perp), axis=-1),
-                 np.concatenate((1.0 + d, axis), axis=-1))
+    opposite = d < -1.0 + 1e-9
+    q = np.where(opposite, np.concatenate((np.zeros_like(d), perp), axis=-1), np.concatenate((1.0 + d, axis), axis=-1))
     return normalize(q)
 
 

@@ -12,16 +12,25 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 def gloverec(*args: str, **kw) -> subprocess.CompletedProcess:
     """Run the CLI as a user would, in a child process."""
-    return subprocess.run([sys.executable, "-m", "recorder.cli", *args], capture_output=True, text=True,
-                          timeout=kw.pop("timeout", 60), **kw)
+    return subprocess.run(
+        [sys.executable, "-m", "recorder.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=kw.pop("timeout", 60),
+        **kw,
+    )
 
 
 class EmulatorProcess:
     """`gloverec emulate` in a child process: a real pseudo-terminal, a real separate writer."""
 
     def __init__(self, *args: str):
-        self.proc = subprocess.Popen([sys.executable, "-m", "recorder.cli", "emulate", *args],
-                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "recorder.cli", "emulate", *args],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         line = self.proc.stdout.readline()
         if not line.startswith("port: "):
             self.proc.kill()

@@ -47,7 +47,7 @@ def recordings(calibrated, tmp_path_factory):
     base = tmp_path_factory.mktemp("rec")
     common = ("--episodes", "2", "--seed", "5", "--repo-id", "test/cal")
     raw = run_json("record", "--glove-mode", "raw", "--root", str(base / "raw"), *common, env=with_dir(folder))
-    pose = run_json("record", "--root", str(base / "pose"), *common, env=with_dir(folder))
+    run_json("record", "--root", str(base / "pose"), *common, env=with_dir(folder))
     return {"raw": base / "raw", "pose": base / "pose", "raw_log": base / "raw" / raw["log"], "base": base}
 
 
@@ -82,8 +82,16 @@ def test_a_moving_hand_is_refused(emulator, tmp_path):
     """A real pty and pyserial, as with a glove: the pose-mode emulator is switched to raw frames by the
     set-mode command; its wearer never stops moving, so step 1 is refused, repeated and finally given up."""
     emu = emulator("--rate", "200", "--mode", "pose", "--motion", "gestures")
-    r = gloverec("calibrate", "--glove", f"serial:{emu.port}", "--dir", str(tmp_path / "cal"), "--attempts", "2",
-                 stdin=open(os.devnull))
+    r = gloverec(
+        "calibrate",
+        "--glove",
+        f"serial:{emu.port}",
+        "--dir",
+        str(tmp_path / "cal"),
+        "--attempts",
+        "2",
+        stdin=open(os.devnull),
+    )
     assert r.returncode == 1, r.stderr
     err = r.stderr.strip().splitlines()
     assert err[-1].startswith("gloverec: error: calibration refused: the hand moved") and "2 attempt(s)" in err[-1]
@@ -100,7 +108,10 @@ def test_bad_gloves_and_files_are_one_line_errors(tmp_path):
         q = np.tile(np.float32([1, 0, 0, 0]), (16, 1))
         for k in range(300):
             logger(encode_frame(PoseFrame(k, k * 5000, q)), 1_000_000_000 + k * 5_000_000, [])
-    for glove, needle in ((f"mcap:{log}", "did not switch to raw mode"), ("serial:/dev/does-not-exist", "no such port")):
+    for glove, needle in (
+        (f"mcap:{log}", "did not switch to raw mode"),
+        ("serial:/dev/does-not-exist", "no such port"),
+    ):
         r = gloverec("calibrate", "--glove", glove, "--dir", str(tmp_path))
         assert r.returncode == 1 and needle in r.stderr, r.stderr
         assert r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
@@ -115,8 +126,9 @@ def test_bad_gloves_and_files_are_one_line_errors(tmp_path):
     bad.write_text(json.dumps(d | {"gyro_bias": [[0, 0, 0]]}))
     with pytest.raises(GloverecError, match="gyro_bias has shape"):
         load_fusion(GLOVE_ID, tmp_path)
-    r = gloverec("record", "--glove-mode", "raw", "--episodes", "1", "--root", str(tmp_path / "ds"),
-                 env=with_dir(tmp_path))
+    r = gloverec(
+        "record", "--glove-mode", "raw", "--episodes", "1", "--root", str(tmp_path / "ds"), env=with_dir(tmp_path)
+    )
     assert r.returncode == 1 and "bad calibration file" in r.stderr and r.stderr.count("\n") == 1, r.stderr
 
 
@@ -150,8 +162,20 @@ def test_a_serial_glove_in_raw_mode_is_fused_with_the_calibration_of_its_id(cali
     folder, _ = calibrated
     emu = emulator("--rate", "200", "--mode", "raw", "--motion", "gestures")
     root = tmp_path / "ds"
-    summary = run_json("record", "--glove", f"serial:{emu.port}", "--episodes", "1", "--episode-time-s", "1.5",
-                       "--root", str(root), "--repo-id", "test/serial", env=with_dir(folder))
+    summary = run_json(
+        "record",
+        "--glove",
+        f"serial:{emu.port}",
+        "--episodes",
+        "1",
+        "--episode-time-s",
+        "1.5",
+        "--root",
+        str(root),
+        "--repo-id",
+        "test/serial",
+        env=with_dir(folder),
+    )
     assert summary["episodes_saved"] == 1
     record = json.loads((root / "meta/gloverec/calibration.json").read_text())
     assert record["glove_id"] == GLOVE_ID and record["calibrated"] and record["host_fusion"]
@@ -185,21 +209,30 @@ def test_raw_mode_joint_angles_match_pose_mode(recordings):
         n = min(len(x), len(y))
         diffs.append(np.degrees(x[:n] - y[:n]))
     d = np.concatenate(diffs)
-    rms = np.sqrt(np.mean(d ** 2, axis=0))
-    assert np.sqrt(np.mean(d ** 2)) < 2.0 and np.abs(d).max() < 8.0, dict(zip(JOINTS, rms.round(2)))
+    rms = np.sqrt(np.mean(d**2, axis=0))
+    assert np.sqrt(np.mean(d**2)) < 2.0 and np.abs(d).max() < 8.0, dict(zip(JOINTS, rms.round(2)))
 
 
 def test_rerecord_fuses_with_the_logs_calibration(recordings, tmp_path):
     """No calibration where rerecord looks (an empty folder): it takes the one in the log, and reproduces."""
     out = tmp_path / "again"
-    run_json("rerecord", "--log", str(recordings["raw_log"]), "--repo-id", "test/again", "--root", str(out),
-             env=with_dir(tmp_path))
+    run_json(
+        "rerecord",
+        "--log",
+        str(recordings["raw_log"]),
+        "--repo-id",
+        "test/again",
+        "--root",
+        str(out),
+        env=with_dir(tmp_path),
+    )
     a, ea = _glove(recordings["raw"])
     b, eb = _glove(out)
     np.testing.assert_array_equal(ea, eb)
     np.testing.assert_allclose(b, a, atol=1e-5)
-    assert json.loads((out / "meta/gloverec/calibration.json").read_text()) == \
-        json.loads((recordings["raw"] / "meta/gloverec/calibration.json").read_text())
+    assert json.loads((out / "meta/gloverec/calibration.json").read_text()) == json.loads(
+        (recordings["raw"] / "meta/gloverec/calibration.json").read_text()
+    )
 
 
 def test_the_reset_key_and_the_button_retake_the_reference_pose(calibrated):

@@ -9,13 +9,16 @@ from recorder.link.sources import open_source
 from recorder.protocol import PoseFrame
 
 
-@pytest.mark.parametrize("args, needle", [
-    (["emulate", "--rate", "-5"], "must be positive"),
-    (["emulate", "--mode", "binary"], "invalid choice"),
-    (["monitor"], "--port"),
-    (["bridge", "--port", "x", "--udp", "nohost"], "HOST:PORT"),
-    (["frobnicate"], "invalid choice"),
-])
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (["emulate", "--rate", "-5"], "must be positive"),
+        (["emulate", "--mode", "binary"], "invalid choice"),
+        (["monitor"], "--port"),
+        (["bridge", "--port", "x", "--udp", "nohost"], "HOST:PORT"),
+        (["frobnicate"], "invalid choice"),
+    ],
+)
 def test_usage_errors_are_one_line(args, needle):
     r = gloverec(*args)
     assert r.returncode == 2
@@ -50,6 +53,7 @@ def test_emulator_prints_its_port_first_and_exposes_ground_truth(emulator, tmp_p
 
 def test_log_then_play_back_through_the_cli(emulator, tmp_path):
     import json
+
     emu = emulator("--rate", "200", "--mode", "raw")
     out = tmp_path / "s.mcap"
     r = gloverec("log", "--port", emu.port, "--out", str(out), "--duration", "2", "--json")

@@ -44,10 +44,10 @@ def test_demo_motion_is_human_like():
     m = make_demonstrator("pose").plan(env, seed=0)
     block = m.next_block(int(3 * m.rate_hz))
     v = np.diff(block.angles, axis=0) * m.rate_hz
-    assert np.abs(v).max() < np.radians(400)                 # no jumps
-    assert np.abs(v[:10]).max() < np.radians(20)             # starts at rest (minimum jerk)
+    assert np.abs(v).max() < np.radians(400)  # no jumps
+    assert np.abs(v[:10]).max() < np.radians(20)  # starts at rest (minimum jerk)
     assert np.abs(block.angles[-1] - env.unwrapped.goal_angles).max() < np.radians(6)
-    nxt = m.next_block(5)                                    # blocks continue one trajectory
+    nxt = m.next_block(5)  # blocks continue one trajectory
     assert nxt.t[0] == pytest.approx(block.t[-1] + 1 / m.rate_hz)
 
 

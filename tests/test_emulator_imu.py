@@ -199,7 +199,7 @@ def test_glove_block_shapes_and_truth():
     assert (b.accel_fs_g, b.gyro_fs_dps) == (16, 2000)
     np.testing.assert_allclose(kin.joint_angles_from_relative(b.truth_rel), b.angles, atol=1e-9)
     err = np.degrees(quat.angle_between(b.pose.astype(float), b.truth_rel))
-    assert 0.3 < np.sqrt(np.mean(err ** 2)) < 0.7  # 0.5° RMS
+    assert 0.3 < np.sqrt(np.mean(err**2)) < 0.7  # 0.5° RMS
     # the palm IMU: gravity plus a little hand motion, bias-level gyro when slow
     a = accel_g(b.raw[:, 0])
     assert np.mean(np.linalg.norm(a, axis=1)) == pytest.approx(1.0, abs=0.1)

@@ -110,7 +110,7 @@ def test_palm_moves_a_little():
     assert 10 < tilt.max() < 60
     span = np.ptp(b.palm_pos, axis=0)
     assert np.all(span > 0.005) and np.all(span < 0.1)
-    acc = np.diff(b.palm_pos, 2, axis=0) * RATE ** 2
+    acc = np.diff(b.palm_pos, 2, axis=0) * RATE**2
     assert 0.1 < np.linalg.norm(acc, axis=1).max() < 5.0  # m/s²
 
 

@@ -28,8 +28,18 @@ from recorder.emulator.motion import Motion
 from recorder.hand.kinematics import LIMITS, REST, forward, joint_angles_from_relative, relative_quats
 from recorder.hand.skeleton import JOINT_MAP, MEASURED_MASK, MUX_MAP, PARENTS
 from recorder.protocol import (
-    CommandCode, EventCode, EventFrame, Mode, PoseCompactFrame, PoseFrame, RawFrame, StatusFrame, StreamDecoder,
-    decode_frame, encode_command, encode_frame,
+    CommandCode,
+    EventCode,
+    EventFrame,
+    Mode,
+    PoseCompactFrame,
+    PoseFrame,
+    RawFrame,
+    StatusFrame,
+    StreamDecoder,
+    decode_frame,
+    encode_command,
+    encode_frame,
 )
 from recorder.protocol.frames import CLOCK_HOST_MONOTONIC, CalibState
 from recorder.protocol.legacy_json import decode_line, encode_line
@@ -41,6 +51,7 @@ RATE = 1000  # Hz, sensing rate of the firmware-in-the-loop runs
 
 
 # ------------------------------------------------------------------------------------------------ build
+
 
 @pytest.fixture(scope="session")
 def fw_build() -> Path:
@@ -59,8 +70,12 @@ def cli(fw_build: Path, *args: str, stdin: bytes = b"") -> bytes:
 
 
 def test_ctest_suite_passes(fw_build):
-    done = subprocess.run(["ctest", "--test-dir", str(fw_build), "--output-on-failure", "--timeout", "60"],
-                          capture_output=True, text=True, timeout=300)
+    done = subprocess.run(
+        ["ctest", "--test-dir", str(fw_build), "--output-on-failure", "--timeout", "60"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert done.returncode == 0, done.stdout[-6000:]
     assert "100% tests passed" in done.stdout
     n = int(done.stdout.split("tests failed out of")[1].split()[0])
@@ -68,6 +83,7 @@ def test_ctest_suite_passes(fw_build):
 
 
 # ------------------------------------------------------------------------------------------------ frames
+
 
 def split_frames(wire: bytes) -> list[bytes]:
     assert wire.endswith(b"\x00")
@@ -79,12 +95,16 @@ def test_pose_frames_are_byte_identical(fw_build):
     quats = rng.uniform(-1, 1, (300, 16, 4)).astype(np.float32)
     quats[0] = 0
     quats[0, :, 0] = 1
-    quats[1, :4] = [[1, -1, 2, -2], [0.5 / 16384, 1.5 / 16384, 2.5 / 16384, -2.5 / 16384],  # ties: half to even
-                    [-0.0, 1e-9, -1e-9, 0.99999], [32767.6 / 16384, -32768.4 / 16384, 0.7071068, 0]]
-    frames = [PoseFrame(int(rng.integers(65536)), int(rng.integers(2**32)), q, int(rng.integers(65536)))
-              for q in quats]
-    records = b"".join(struct.pack("<HIH", f.seq, f.t_us, f.measured_mask) + f.quats.astype("<f4").tobytes()
-                       for f in frames)
+    quats[1, :4] = [
+        [1, -1, 2, -2],
+        [0.5 / 16384, 1.5 / 16384, 2.5 / 16384, -2.5 / 16384],  # ties: half to even
+        [-0.0, 1e-9, -1e-9, 0.99999],
+        [32767.6 / 16384, -32768.4 / 16384, 0.7071068, 0],
+    ]
+    frames = [PoseFrame(int(rng.integers(65536)), int(rng.integers(2**32)), q, int(rng.integers(65536))) for q in quats]
+    records = b"".join(
+        struct.pack("<HIH", f.seq, f.t_us, f.measured_mask) + f.quats.astype("<f4").tobytes() for f in frames
+    )
     wire = cli(fw_build, "pose", stdin=records)
     assert wire == b"".join(encode_frame(f) for f in frames)
     for chunk, f in zip(split_frames(wire), frames, strict=True):
@@ -102,8 +122,10 @@ def test_pose_compact_frames_are_byte_identical(fw_build):
     angles[0, :6] = np.radians([0.05, 0.15, -0.05, 204.7, -204.75, 0.0])  # ties, the range's ends
     angles[1, ::3] = np.nan  # "no value"
     frames = [PoseCompactFrame(k, int(rng.integers(2**32)), p, a) for k, (p, a) in enumerate(zip(palm, angles))]
-    records = b"".join(struct.pack("<HI", f.seq, f.t_us) + f.palm_quat.astype("<f4").tobytes()
-                       + f.angles.astype("<f4").tobytes() for f in frames)
+    records = b"".join(
+        struct.pack("<HI", f.seq, f.t_us) + f.palm_quat.astype("<f4").tobytes() + f.angles.astype("<f4").tobytes()
+        for f in frames
+    )
     wire = cli(fw_build, "compact", stdin=records)
     assert wire == b"".join(encode_frame(f) for f in frames)
     for chunk, f in zip(split_frames(wire), frames, strict=True):
@@ -133,8 +155,14 @@ def test_raw_status_and_event_frames_are_byte_identical(fw_build):
     for k in range(200):
         n = int(rng.integers(1, 17))
         data = rng.integers(-32768, 32768, (n, 7)).astype(np.int16)
-        f = RawFrame(k * 7919 % 65536, int(rng.integers(2**32)), data, int(rng.choice([2, 4, 8, 16])),
-                     int(rng.choice([250, 500, 1000, 2000])), int(rng.integers(65536)))
+        f = RawFrame(
+            k * 7919 % 65536,
+            int(rng.integers(2**32)),
+            data,
+            int(rng.choice([2, 4, 8, 16])),
+            int(rng.choice([250, 500, 1000, 2000])),
+            int(rng.integers(65536)),
+        )
         padded = np.zeros((16, 7), "<i2")
         padded[:n] = data
         rec += struct.pack("<HIBBHH", f.seq, f.t_us, n, f.accel_fs_g, f.gyro_fs_dps, f.ok_mask) + padded.tobytes()
@@ -149,20 +177,46 @@ def test_raw_status_and_event_frames_are_byte_identical(fw_build):
     for k in range(100):
         n = int(rng.integers(0, 17))
         mux, joint = tuple(int(v) for v in rng.integers(0, 8, n)), tuple(int(v) for v in rng.integers(0, 16, n))
-        f = StatusFrame(k, int(rng.integers(2**32)), tuple(int(v) for v in rng.integers(0, 256, 3)),
-                        Mode(int(rng.integers(3))), int(rng.integers(65536)), int(rng.integers(65536)),
-                        CalibState(int(rng.integers(4))), int(rng.integers(101)), int(rng.integers(2)),
-                        int(rng.integers(2**32)), int(rng.integers(65536)), mux, joint)
-        rec += struct.pack("<HI3BBHHBBBIHB", f.seq, f.t_us, *f.firmware, f.mode, f.sense_rate_hz, f.output_rate_hz,
-                           f.calib_state, f.calib_progress, f.clock_flags, f.glove_id, f.imu_ok_mask, n)
+        f = StatusFrame(
+            k,
+            int(rng.integers(2**32)),
+            tuple(int(v) for v in rng.integers(0, 256, 3)),
+            Mode(int(rng.integers(3))),
+            int(rng.integers(65536)),
+            int(rng.integers(65536)),
+            CalibState(int(rng.integers(4))),
+            int(rng.integers(101)),
+            int(rng.integers(2)),
+            int(rng.integers(2**32)),
+            int(rng.integers(65536)),
+            mux,
+            joint,
+        )
+        rec += struct.pack(
+            "<HI3BBHHBBBIHB",
+            f.seq,
+            f.t_us,
+            *f.firmware,
+            f.mode,
+            f.sense_rate_hz,
+            f.output_rate_hz,
+            f.calib_state,
+            f.calib_progress,
+            f.clock_flags,
+            f.glove_id,
+            f.imu_ok_mask,
+            n,
+        )
         rec += bytes(mux).ljust(16, b"\0") + bytes(joint).ljust(16, b"\0")
         statuses.append(f)
     wire = cli(fw_build, "status", stdin=rec)
     assert wire == b"".join(encode_frame(f) for f in statuses)
     assert [decode_frame(c) for c in split_frames(wire)] == statuses
 
-    events = [EventFrame(i, i * 1000003 % 2**32, code, arg) for i, (code, arg) in
-              enumerate((c, a) for c in EventCode for a in (0, 1, 11, 255))]
+    events = [
+        EventFrame(i, i * 1000003 % 2**32, code, arg)
+        for i, (code, arg) in enumerate((c, a) for c in EventCode for a in (0, 1, 11, 255))
+    ]
     wire = cli(fw_build, "event", stdin=b"".join(struct.pack("<HIBB", e.seq, e.t_us, e.code, e.arg) for e in events))
     assert wire == b"".join(encode_frame(e) for e in events)
     assert [decode_frame(c) for c in split_frames(wire)] == events
@@ -205,11 +259,19 @@ def test_cpp_decodes_python_commands(fw_build):
 
 # ---------------------------------------------------------------------------------- synthetic IMU data
 
+
 def qmul(p, q):
     pw, px, py, pz = np.moveaxis(p, -1, 0)
     qw, qx, qy, qz = np.moveaxis(q, -1, 0)
-    return np.stack([pw * qw - px * qx - py * qy - pz * qz, pw * qx + px * qw + py * qz - pz * qy,
-                     pw * qy - px * qz + py * qw + pz * qx, pw * qz + px * qy - py * qx + pz * qw], -1)
+    return np.stack(
+        [
+            pw * qw - px * qx - py * qy - pz * qz,
+            pw * qx + px * qw + py * qz - pz * qy,
+            pw * qy - px * qz + py * qw + pz * qx,
+            pw * qz + px * qy - py * qx + pz * qw,
+        ],
+        -1,
+    )
 
 
 def conj(q):
@@ -238,8 +300,9 @@ def synth_motion(seconds: float, n_imu: int = 12, seed: int = 0):
     for k in range(1, len(t)):  # integrate the true attitude with the exact exponential of the mid rate
         w = 0.5 * (gyro[k - 1] + gyro[k]) / RATE
         ang = np.linalg.norm(w, axis=-1, keepdims=True)
-        q[k] = normalize(qmul(q[k - 1], np.concatenate([np.cos(ang / 2), w / np.maximum(ang, 1e-12) *
-                                                        np.sin(ang / 2)], -1)))
+        q[k] = normalize(
+            qmul(q[k - 1], np.concatenate([np.cos(ang / 2), w / np.maximum(ang, 1e-12) * np.sin(ang / 2)], -1))
+        )
     accel = rotate(conj(q), np.array([0, 0, 1.0])) + rng.normal(0, 0.01, q.shape[:2] + (3,))
     accel += (np.sin(2 * np.pi * 0.3 * t) > 0.8)[:, None, None] * np.array([0.15, -0.1, 0.05])  # e_m 0.1-0.2
     return gyro.astype(np.float32), accel.astype(np.float32)
@@ -261,14 +324,17 @@ def write_samples(path: Path, gyro, accel) -> Path:
 def quantize(gyro, accel):
     """What the glove reads (MPU9250 counts at +-16 g, +-2000 dps; round half away from zero, as std::round)
     and the values the core fuses, counts * scale (firmware/lib/glove_core/imu_units.h)."""
+
     def counts(x):
         return np.clip(np.sign(x) * np.floor(np.abs(x) + 0.5), -32768, 32767)
+
     a = counts(accel.astype(np.float64) * 32768.0 / 16)
     g = counts(gyro.astype(np.float64) * (32768.0 / 2000) * (180.0 / math.pi))
     return g, a, g * (2000 * (0.017453292519943295 / 32768)), a * (16 / 32768)
 
 
 # ------------------------------------------------------------------------------ numpy reference filter
+
 
 def from_gravity(a):
     """Thesis eq. 3.5-3.6, yaw 0."""
@@ -321,6 +387,7 @@ def reference_pose(filt, ref, joint_map=JOINT_MAP, ratio=65 / 115):
 
 # --------------------------------------------------------------------------------- firmware in the loop
 
+
 def run_glove(fw_build, tmp_path, gyro, accel, *args, name="run") -> bytes:
     samples = write_samples(tmp_path / f"{name}.bin", gyro, accel)
     return cli(fw_build, "run", "--sense-rate", str(RATE), *args, str(samples))
@@ -334,8 +401,9 @@ def decode_stream(wire: bytes, protocol: str = "auto"):
 
 def test_boot_calibration_and_pose_stream(fw_build, tmp_path):
     gyro, accel = still(1.5)
-    frames, stats = decode_stream(run_glove(fw_build, tmp_path, gyro, accel, "--output-rate", "100",
-                                            "--glove-id", "0xC0FFEE"))
+    frames, stats = decode_stream(
+        run_glove(fw_build, tmp_path, gyro, accel, "--output-rate", "100", "--glove-id", "0xC0FFEE")
+    )
     assert stats.errors == 0 and stats.gaps == 0 and stats.skipped_bytes == 0
     assert [f.seq for f in frames] == list(range(len(frames)))
     events = [f.code for f in frames if isinstance(f, EventFrame)]
@@ -356,8 +424,20 @@ def test_filter_matches_numpy_reference_over_10s(fw_build, tmp_path):
     """The issue's criterion: the compiled core and a Python reference agree within 1e-5 per quaternion
     component over 10 s (1 kHz, 12 IMUs, rates up to ~6 rad/s, linear-acceleration bursts)."""
     gyro, accel = synth_motion(10.0)
-    wire = run_glove(fw_build, tmp_path, gyro, accel, "--calib-samples", "0", "--output-rate", "50",
-                     "--trace", str(tmp_path / "trace.bin"), "--trace-pose", str(tmp_path / "pose.bin"))
+    wire = run_glove(
+        fw_build,
+        tmp_path,
+        gyro,
+        accel,
+        "--calib-samples",
+        "0",
+        "--output-rate",
+        "50",
+        "--trace",
+        str(tmp_path / "trace.bin"),
+        "--trace-pose",
+        str(tmp_path / "pose.bin"),
+    )
     T = len(gyro)
     trace = np.fromfile(tmp_path / "trace.bin", "<f8").reshape(T, 12, 4)
     _, _, g, a = quantize(gyro, accel)
@@ -382,8 +462,9 @@ def test_filter_matches_numpy_reference_over_10s(fw_build, tmp_path):
 
 def test_raw_mode_sends_the_counts_read(fw_build, tmp_path):
     gyro, accel = synth_motion(0.5, seed=4)
-    frames, stats = decode_stream(run_glove(fw_build, tmp_path, gyro, accel, "--mode", "raw", "--output-rate", "1000",
-                                            "--calib-samples", "0"))
+    frames, stats = decode_stream(
+        run_glove(fw_build, tmp_path, gyro, accel, "--mode", "raw", "--output-rate", "1000", "--calib-samples", "0")
+    )
     assert stats.errors == 0 and stats.gaps == 0
     raws = [f for f in frames if isinstance(f, RawFrame)]
     assert len(raws) == len(gyro)
@@ -397,18 +478,32 @@ def test_raw_mode_sends_the_counts_read(fw_build, tmp_path):
 def test_commands_button_and_faults_in_the_loop(fw_build, tmp_path):
     gyro, accel = still(3.0)
     gyro[1500:1800, 3] = np.nan  # IMU 3 stops answering for 300 ms
-    rx = [(300, encode_command(CommandCode.SET_MODE, Mode.RAW)),
-          (400, encode_command(CommandCode.SET_RATE, 20)),
-          (500, encode_command(CommandCode.SET_RATE, 5000)),  # above the sense rate: ignored
-          (600, bytes([1, 2, 3, 0])),                          # garbage: ignored
-          (700, encode_command(CommandCode.SET_MODE, Mode.POSE)),
-          (800, encode_command(CommandCode.RESET_POSE)),
-          (900, encode_command(CommandCode.GET_STATUS)),
-          (1600, encode_command(CommandCode.GET_STATUS)),
-          (2000, encode_command(CommandCode.RECALIBRATE))]
+    rx = [
+        (300, encode_command(CommandCode.SET_MODE, Mode.RAW)),
+        (400, encode_command(CommandCode.SET_RATE, 20)),
+        (500, encode_command(CommandCode.SET_RATE, 5000)),  # above the sense rate: ignored
+        (600, bytes([1, 2, 3, 0])),  # garbage: ignored
+        (700, encode_command(CommandCode.SET_MODE, Mode.POSE)),
+        (800, encode_command(CommandCode.RESET_POSE)),
+        (900, encode_command(CommandCode.GET_STATUS)),
+        (1600, encode_command(CommandCode.GET_STATUS)),
+        (2000, encode_command(CommandCode.RECALIBRATE)),
+    ]
     (tmp_path / "rx.bin").write_bytes(b"".join(struct.pack("<IH", k, len(b)) + b for k, b in rx))
-    frames, stats = decode_stream(run_glove(fw_build, tmp_path, gyro, accel, "--rx", str(tmp_path / "rx.bin"),
-                                            "--button", "1000", "--output-rate", "100"))
+    frames, stats = decode_stream(
+        run_glove(
+            fw_build,
+            tmp_path,
+            gyro,
+            accel,
+            "--rx",
+            str(tmp_path / "rx.bin"),
+            "--button",
+            "1000",
+            "--output-rate",
+            "100",
+        )
+    )
     assert stats.errors == 0 and stats.gaps == 0
 
     def at(kind, lo, hi):  # frames of a kind sent during cycles lo..hi (t_us = (k + 1) ms)
@@ -465,9 +560,24 @@ def test_live_mode_runs_the_core_as_emulator_firmware(fw_build, tmp_path):
     os.mkfifo(fifo)
     gyro, accel = still(0.2)
     blob = np.concatenate([gyro, accel], -1).astype("<f4")
-    proc = subprocess.Popen([str(fw_build / "glove_core_cli"), "run", "--live", "--rx-fifo", str(fifo),
-                             "--sense-rate", str(RATE), "--output-rate", str(RATE), "--calib-samples", "0", "-"],
-                            stdin=subprocess.PIPE, stdout=subprocess.PIPE)
+    proc = subprocess.Popen(
+        [
+            str(fw_build / "glove_core_cli"),
+            "run",
+            "--live",
+            "--rx-fifo",
+            str(fifo),
+            "--sense-rate",
+            str(RATE),
+            "--output-rate",
+            str(RATE),
+            "--calib-samples",
+            "0",
+            "-",
+        ],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+    )
     try:
         dec, frames = StreamDecoder(), []
         proc.stdin.write(blob[:100].tobytes())
@@ -514,8 +624,12 @@ def test_firmware_core_serves_the_synthetic_glove(fw_build):
         return (f.t_us - t0) % 2**32 // 1000
 
     events = [(cycle(f), f.code) for f in frames if isinstance(f, EventFrame)]
-    assert events == [(0, EventCode.BOOT), (0, EventCode.CALIB_START), (255, EventCode.CALIB_DONE),
-                      (255, EventCode.POSE_RESET)]
+    assert events == [
+        (0, EventCode.BOOT),
+        (0, EventCode.CALIB_START),
+        (255, EventCode.CALIB_DONE),
+        (255, EventCode.POSE_RESET),
+    ]
     status = [f for f in frames if isinstance(f, StatusFrame)]
     assert all(f.clock_flags == CLOCK_HOST_MONOTONIC for f in status)
     assert [cycle(f) for f in status if f.mode == Mode.COMPACT][0] == 3000  # the command's answer
@@ -529,4 +643,4 @@ def test_firmware_core_serves_the_synthetic_glove(fw_build):
     got = np.concatenate([np.stack([f.quats for f in poses]), np.stack([f.relative_quats() for f in compact])])
     err = np.degrees(quat.angle_between(got, block.truth_rel[k]))[:, 1:]
     # observed: rms 0.9 deg, 99th percentile 3.2 deg, max 8.6 deg (fast gesture transitions)
-    assert np.sqrt(np.mean(err ** 2)) < 2.0 and np.percentile(err, 99) < 6.0, (err.mean(0), err.max(0))
+    assert np.sqrt(np.mean(err**2)) < 2.0 and np.percentile(err, 99) < 6.0, (err.mean(0), err.max(0))

@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 from recorder.emulator.glove import SyntheticGlove
-from recorder.fusion import FILTERS, FusionConfig, HostFusion, filter_block, make_filter
-from recorder.fusion import emulated, kernels
+from recorder.fusion import FILTERS, FusionConfig, HostFusion, emulated, filter_block, kernels, make_filter
 
 pytestmark = pytest.mark.skipif(not kernels.AVAILABLE, reason="numba is not installed")
 RATE = 200
@@ -19,7 +18,7 @@ def motion():
     accel = b.raw[..., 0:3] * (16 / 32768.0)
     gyro = np.radians(b.raw[..., 3:6] * (2000 / 32768.0))
     rng = np.random.default_rng(0)
-    mask = rng.random(accel.shape[:2]) > 0.05          # IMUs that miss a sample now and then
+    mask = rng.random(accel.shape[:2]) > 0.05  # IMUs that miss a sample now and then
     dt = (1.0 + 0.2 * rng.standard_normal(accel.shape[:2])) / RATE  # jittery clocks
     return gyro, accel, mask, dt
 
@@ -33,8 +32,12 @@ def test_numba_equals_numpy(name, motion):
         f.reset(accel[0])
     a = filter_block(ref, gyro, accel, dt, mask, engine="numpy")
     half = len(gyro) // 2  # two calls: the state (median windows included) carries over
-    b = np.concatenate((filter_block(fast, gyro[:half], accel[:half], dt[:half], mask[:half], engine="numba"),
-                        filter_block(fast, gyro[half:], accel[half:], dt[half:], mask[half:], engine="numba")))
+    b = np.concatenate(
+        (
+            filter_block(fast, gyro[:half], accel[:half], dt[:half], mask[:half], engine="numba"),
+            filter_block(fast, gyro[half:], accel[half:], dt[half:], mask[half:], engine="numba"),
+        )
+    )
     np.testing.assert_allclose(b, a, atol=1e-9)
     for k, v in ref.state().items():
         np.testing.assert_allclose(fast.state()[k], v, atol=1e-9, err_msg=k)
@@ -59,7 +62,7 @@ def test_block_api_cost_per_12_imu_step(motion):
         f = make_filter(name)
         f.reset(a[0])
         filter_block(f, g[:5], a[:5], 1.0 / RATE)  # compiled already: warm
-        best = min(_timed(lambda: filter_block(f, g, a, 1.0 / RATE)) for _ in range(3)) / len(g)
+        best = min(_timed(lambda f=f: filter_block(f, g, a, 1.0 / RATE)) for _ in range(3)) / len(g)
         assert best < 10e-6, (name, best)
 
 
@@ -77,8 +80,8 @@ def test_host_pipeline_numba_equals_numpy(name):
     raw = b.raw.copy()
     ok = np.full(len(raw), 0xFFF)
     k1 = emulated.phase("rest", RATE).stop
-    raw[k1 + 50: k1 + 80, 5] = 0  # a dead IMU for a while
-    ok[k1 + 100: k1 + 120] &= ~(1 << 9)
+    raw[k1 + 50 : k1 + 80, 5] = 0  # a dead IMU for a while
+    ok[k1 + 100 : k1 + 120] &= ~(1 << 9)
     outs = []
     for engine in ("numpy", "numba"):
         hf = HostFusion(FusionConfig(filter=name, engine=engine, rate_hz=RATE))

@@ -21,15 +21,22 @@ def procedure():
     b = glove.next_block(int(emulated.START * RATE))
     accel = b.raw[..., 0:3] * (16 / 32768.0)
     gyro = np.radians(b.raw[..., 3:6] * (2000 / 32768.0))
-    return {"b": b, "a": accel, "g": gyro, "imus": glove.imus,
-            "ph": {p: emulated.phase(p, RATE) for p in emulated.PHASES}}
+    return {
+        "b": b,
+        "a": accel,
+        "g": gyro,
+        "imus": glove.imus,
+        "ph": {p: emulated.phase(p, RATE) for p in emulated.PHASES},
+    }
 
 
 def test_gyro_bias_from_a_still_hand(procedure):
     p, s = procedure, procedure["ph"]["still"]
     bias = cal.gyro_bias(p["g"][s], p["a"][s])
-    true = p["imus"].gyro_bias0 + p["imus"].gyro_tempco * (p["imus"].temperature(np.array([1.5]))[0]
-                                                           - p["imus"].temp0)[:, None]
+    true = (
+        p["imus"].gyro_bias0
+        + p["imus"].gyro_tempco * (p["imus"].temperature(np.array([1.5]))[0] - p["imus"].temp0)[:, None]
+    )
     np.testing.assert_allclose(np.degrees(bias), np.degrees(true), atol=0.02)  # MPU9250 ZRO is up to 5 deg/s
     assert np.abs(np.degrees(true)).max() > 1.0
 
@@ -85,8 +92,9 @@ def test_sensor_to_segment_alignment_kortier_eq_34(procedure):
     assert naive[1:].min() > 2.0  # the glove really is misaligned
     # the palm: its up axis is right, its heading about it unknowable from a flat hand
     up = np.array([0.0, 0.0, 1.0])
-    tilt_err = quat.angle_between(quat.from_two_vectors(quat.rotate(mounts[0], up), quat.rotate(true[0], up)),
-                                  quat.IDENTITY)
+    tilt_err = quat.angle_between(
+        quat.from_two_vectors(quat.rotate(mounts[0], up), quat.rotate(true[0], up)), quat.IDENTITY
+    )
     assert np.degrees(tilt_err) < 0.5
 
 

@@ -26,8 +26,10 @@ def cli(tmp_path_factory) -> Path:
     if missing:
         pytest.skip(f"needs {' and '.join(missing)} to build the firmware core")
     build = tmp_path_factory.mktemp("fw")
-    for cmd in (["cmake", "-S", str(FIRMWARE), "-B", str(build), "-DGLOVE_CHECK_ARDUINO_LAYER=OFF"],
-                ["cmake", "--build", str(build), "-j", "2", "--target", "glove_core_cli"]):
+    for cmd in (
+        ["cmake", "-S", str(FIRMWARE), "-B", str(build), "-DGLOVE_CHECK_ARDUINO_LAYER=OFF"],
+        ["cmake", "--build", str(build), "-j", "2", "--target", "glove_core_cli"],
+    ):
         done = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
         assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
     return build / "glove_core_cli"
@@ -41,9 +43,23 @@ def test_complementary_filter_matches_the_firmware(cli, tmp_path, rate, seconds)
     gyro = np.radians(b.raw[..., 3:6].astype(float) * (2000 / 32768.0))
     # the CLI's input: float32 gyro (rad/s) and accel (g) per IMU; it re-quantises to the same registers
     np.concatenate((gyro, accel), axis=2).astype("<f4").tofile(tmp_path / "samples.bin")
-    done = subprocess.run([str(cli), "run", "--calib-samples", "0", "--sense-rate", str(rate), "--trace",
-                           str(tmp_path / "trace.bin"), "--out", str(tmp_path / "out.bin"),
-                           str(tmp_path / "samples.bin")], capture_output=True, timeout=120)
+    done = subprocess.run(
+        [
+            str(cli),
+            "run",
+            "--calib-samples",
+            "0",
+            "--sense-rate",
+            str(rate),
+            "--trace",
+            str(tmp_path / "trace.bin"),
+            "--out",
+            str(tmp_path / "out.bin"),
+            str(tmp_path / "samples.bin"),
+        ],
+        capture_output=True,
+        timeout=120,
+    )
     assert done.returncode == 0, done.stderr.decode()
     raw_trace = (tmp_path / "trace.bin").read_bytes()
     dtype = "<f4" if len(raw_trace) == T * 12 * 4 * 4 else "<f8"

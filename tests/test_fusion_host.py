@@ -24,8 +24,14 @@ def glove():
     b = g.next_block(int((emulated.START + SECONDS) * RATE))
     t = np.round(np.arange(len(b.t)) * 1e6 / RATE).astype(np.int64)
     rec = {p: (b.raw[emulated.phase(p, RATE)], t[emulated.phase(p, RATE)]) for p in emulated.PHASES}
-    return {"block": b, "t": t, "rec": rec, "k1": emulated.phase("rest", RATE).stop,
-            "k0": int(emulated.START * RATE), "imus": g.imus}
+    return {
+        "block": b,
+        "t": t,
+        "rec": rec,
+        "k1": emulated.phase("rest", RATE).stop,
+        "k0": int(emulated.START * RATE),
+        "imus": g.imus,
+    }
 
 
 def started(glove, **config) -> HostFusion:
@@ -38,7 +44,7 @@ def started(glove, **config) -> HostFusion:
 
 def rms_deg(out, glove):
     k = glove["k0"] - glove["k1"]
-    return np.degrees(np.sqrt(np.mean((out.angles[k:] - glove["block"].angles[glove["k0"]:]) ** 2, axis=0)))
+    return np.degrees(np.sqrt(np.mean((out.angles[k:] - glove["block"].angles[glove["k0"] :]) ** 2, axis=0)))
 
 
 @pytest.mark.parametrize("name", ["complementary", "mahony", "relative", "madgwick"])
@@ -47,10 +53,10 @@ def test_joint_angles_and_fingertips_match_the_ground_truth(glove, name):
     k1 = glove["k1"]
     out = hf.process_block(glove["block"].raw[k1:], glove["t"][k1:])
     err = rms_deg(out, glove)
-    assert np.sqrt(np.mean(err ** 2)) < 1.0 and err.max() < 2.0, dict(zip(JOINTS, err.round(2)))
+    assert np.sqrt(np.mean(err**2)) < 1.0 and err.max() < 2.0, dict(zip(JOINTS, err.round(2)))
     k = glove["k0"] - k1
     tips = joints.fingertips(out.angles[k:])
-    truth = joints.fingertips(glove["block"].angles[glove["k0"]:])
+    truth = joints.fingertips(glove["block"].angles[glove["k0"] :])
     assert np.sqrt(np.mean(np.sum((tips - truth) ** 2, axis=-1))) < 0.003  # 3 mm
     assert out.valid.all() and not out.flags.any()
     # the constrained pose: quats are the model at the angles, the palm row its world orientation
@@ -77,14 +83,14 @@ def test_a_drifting_bias_does_not_become_drifting_joints(glove):
 def test_bad_input_is_flagged_and_not_fused(glove):
     hf = started(glove)
     k1 = glove["k1"]
-    raw = glove["block"].raw[k1: k1 + 400].astype(float)
+    raw = glove["block"].raw[k1 : k1 + 400].astype(float)
     ok = np.full(len(raw), 0xFFF)
-    raw[100:110, 2, 0] = np.nan            # thumb proximal: NaN
-    raw[120:130, 4, 3] = 32767             # index proximal: gyro saturated
-    raw[140:150, 6, :6] = 0                # middle proximal: a dead IMU answering zeros
-    ok[160:170] &= ~(1 << 8)               # ring proximal: did not answer
+    raw[100:110, 2, 0] = np.nan  # thumb proximal: NaN
+    raw[120:130, 4, 3] = 32767  # index proximal: gyro saturated
+    raw[140:150, 6, :6] = 0  # middle proximal: a dead IMU answering zeros
+    ok[160:170] &= ~(1 << 8)  # ring proximal: did not answer
     raw[180:200, 10, :6] = raw[180, 10, :6]  # pinky proximal: stuck registers
-    out = hf.process_block(raw, glove["t"][k1: k1 + 400], ok)
+    out = hf.process_block(raw, glove["t"][k1 : k1 + 400], ok)
     assert describe(out.flags[105, 2]) == ["nonfinite"]
     assert out.flags[125, 4] & SATURATED and out.flags[145, 6] & DEAD and out.flags[165, 8] & MISSING
     assert out.flags[199, 10] & STUCK and not out.flags[185, 10]  # stuck after 10 identical frames
@@ -105,20 +111,20 @@ def test_bad_input_is_flagged_and_not_fused(glove):
 def test_a_flagged_imu_keeps_its_filter_state(glove):
     hf = started(glove)
     k1 = glove["k1"]
-    raw = glove["block"].raw[k1: k1 + 50].copy()
-    hf.process_block(raw[:10], glove["t"][k1: k1 + 10])
+    raw = glove["block"].raw[k1 : k1 + 50].copy()
+    hf.process_block(raw[:10], glove["t"][k1 : k1 + 10])
     before = hf.filter.q[7].copy()
     ok = np.full(40, 0xFFF & ~(1 << 7))
-    hf.process_block(raw[10:], glove["t"][k1 + 10: k1 + 50], ok)
+    hf.process_block(raw[10:], glove["t"][k1 + 10 : k1 + 50], ok)
     np.testing.assert_array_equal(hf.filter.q[7], before)
 
 
 def test_accelerometer_disturbance_shows_in_the_quality(glove):
     hf = started(glove)
     k1 = glove["k1"]
-    raw = glove["block"].raw[k1: k1 + 100].copy()
+    raw = glove["block"].raw[k1 : k1 + 100].copy()
     raw[50:60, 3, :3] = np.round(raw[50:60, 3, :3] * 1.5).astype(np.int16)  # |a| = 1.5 g on one IMU
-    out = hf.process_block(raw, glove["t"][k1: k1 + 100])
+    out = hf.process_block(raw, glove["t"][k1 : k1 + 100])
     assert out.accel_error[55, 3] > 0.1 and out.trust[55, 3] < 1.0
     assert out.accel_error[20, 3] < 0.05 and out.trust[20, 3] == 1.0
     assert np.all(out.constraint >= 0) and np.all(out.bias_change >= 0)

@@ -96,8 +96,8 @@ def test_hinge_twist_is_removed_not_turned_into_flexion():
 
 def test_limits_clamp_and_distal_interpolation():
     angles = np.zeros(kin.N_JOINTS)
-    angles[kin.JOINTS.index("middle_pip")] = np.radians(150)     # beyond 110
-    angles[kin.JOINTS.index("ring_pip")] = np.radians(-20)       # hyperextension beyond 0
+    angles[kin.JOINTS.index("middle_pip")] = np.radians(150)  # beyond 110
+    angles[kin.JOINTS.index("ring_pip")] = np.radians(-20)  # hyperextension beyond 0
     angles[kin.JOINTS.index("index_mcp_abd")] = np.radians(-40)  # beyond -25
     g, _, _ = kin.forward(angles, quat.IDENTITY)
     got = np.degrees(joints.joint_angles(kin.relative_quats(g)))
@@ -105,7 +105,7 @@ def test_limits_clamp_and_distal_interpolation():
     assert got[kin.JOINTS.index("ring_pip")] == pytest.approx(0.0)
     assert got[kin.JOINTS.index("index_mcp_abd")] == pytest.approx(-25.0)
     assert got[kin.JOINTS.index("middle_dip")] == pytest.approx(110.0 * 65 / 115)  # eq. 3.3
-    assert got[kin.JOINTS.index("ring_dip")] == 0.0                                # eq. 3.3, alpha < 0
+    assert got[kin.JOINTS.index("ring_dip")] == 0.0  # eq. 3.3, alpha < 0
     free = np.degrees(joints.joint_angles(kin.relative_quats(g), limits=False, interpolate=False))
     assert free[kin.JOINTS.index("middle_pip")] == pytest.approx(150.0)
 

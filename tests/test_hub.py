@@ -21,8 +21,10 @@ from recorder.hub.store import Hub
 
 REPO = "alice/grasp"
 DATA = "data/chunk-000/file-000.parquet"
-FEATURES = {"observation.state": {"dtype": "float32", "shape": (3,), "names": None},
-            "action": {"dtype": "float32", "shape": (2,), "names": None}}
+FEATURES = {
+    "observation.state": {"dtype": "float32", "shape": (3,), "names": None},
+    "action": {"dtype": "float32", "shape": (2,), "names": None},
+}
 
 
 def make_dataset(root: Path, episodes: int, seed: int) -> Path:
@@ -33,8 +35,13 @@ def make_dataset(root: Path, episodes: int, seed: int) -> Path:
     ds = LeRobotDataset.create(REPO, 10, FEATURES, root=root, use_videos=False)
     for e in range(episodes):
         for _ in range(4 + e):
-            ds.add_frame({"observation.state": rng.normal(size=3).astype(np.float32),
-                          "action": rng.normal(size=2).astype(np.float32), "task": f"grasp {e % 2}"})
+            ds.add_frame(
+                {
+                    "observation.state": rng.normal(size=3).astype(np.float32),
+                    "action": rng.normal(size=2).astype(np.float32),
+                    "task": f"grasp {e % 2}",
+                }
+            )
         ds.save_episode()
     ds.finalize()
     return root
@@ -45,8 +52,17 @@ def rows(root) -> list[tuple]:
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
     ds = LeRobotDataset(REPO, root=root)
-    return [(tuple(f["observation.state"].tolist()), tuple(f["action"].tolist()), int(f["episode_index"]),
-             int(f["index"]), round(float(f["timestamp"]), 6), f["task"]) for f in (ds[i] for i in range(len(ds)))]
+    return [
+        (
+            tuple(f["observation.state"].tolist()),
+            tuple(f["action"].tolist()),
+            int(f["episode_index"]),
+            int(f["index"]),
+            round(float(f["timestamp"]), 6),
+            f["task"],
+        )
+        for f in (ds[i] for i in range(len(ds)))
+    ]
 
 
 @pytest.fixture(scope="module")
@@ -87,6 +103,7 @@ def flip_byte(path: Path, offset: int | None = None) -> None:
 
 # ------------------------------------------------------------------ push and load
 
+
 def test_push_publishes_a_version_lerobot_loads(hub, sources, capsys):
     assert cli("push", "--repo-id", REPO, "--root", str(sources["a"]), "--hub", str(hub.root), "--json") == 0
     out = json.loads(capsys.readouterr().out)
@@ -96,8 +113,9 @@ def test_push_publishes_a_version_lerobot_loads(hub, sources, capsys):
     assert rows(link) == sources["rows_a"]
     manifest = json.loads((link / MANIFEST).read_text())
     assert manifest["repo_id"] == REPO and manifest["version"] == "v1"
-    assert sorted(manifest["files"]) == sorted(p.relative_to(sources["a"]).as_posix()
-                                               for p in sources["a"].rglob("*") if p.is_file())
+    assert sorted(manifest["files"]) == sorted(
+        p.relative_to(sources["a"]).as_posix() for p in sources["a"].rglob("*") if p.is_file()
+    )
     for rel, entry in manifest["files"].items():
         assert entry["sha256"] == hashlib.sha256((sources["a"] / rel).read_bytes()).hexdigest()
         assert not os.stat(link / rel).st_mode & 0o222  # published files are read-only
@@ -112,8 +130,9 @@ def test_push_skips_scratch_files(hub, sources, tmp_path):
         (src / junk).parent.mkdir(parents=True)
         (src / junk).write_bytes(b"scratch")
     v = hub.push(src, REPO)
-    assert sorted(v.manifest()["files"]) == sorted(p.relative_to(sources["a"]).as_posix()
-                                                   for p in sources["a"].rglob("*") if p.is_file())
+    assert sorted(v.manifest()["files"]) == sorted(
+        p.relative_to(sources["a"]).as_posix() for p in sources["a"].rglob("*") if p.is_file()
+    )
     assert not (v.path / "images").exists() and not (v.path / ".cache").exists() and hub.verify().ok
 
 
@@ -150,6 +169,7 @@ def test_hub_location_comes_from_flag_env_or_default(tmp_path, sources, monkeypa
 
 # ------------------------------------------------------------------ verify
 
+
 def test_verify_catches_one_flipped_byte_in_any_file(hub, sources, capsys):
     v = hub.push(sources["a"], REPO)
     assert cli("hub", "verify", "--hub", str(hub.root)) == 0
@@ -181,16 +201,46 @@ def test_verify_names_missing_and_unexpected_files(hub, sources, capsys):
     assert cli("hub", "verify", "--repo-id", REPO, "--version", "v1", "--hub", str(hub.root)) == 0
     (v1.path / MANIFEST).unlink()
     one_line_error(hub.version(REPO, "v1").manifest, needle=f"no {MANIFEST}")
-    one_line_error(cli, "hub", "verify", "--repo-id", REPO, "--version", "1", "--hub", str(hub.root),
-                   needle=f"alice/grasp v1 ({v1.path} is damaged: no {MANIFEST})")
+    one_line_error(
+        cli,
+        "hub",
+        "verify",
+        "--repo-id",
+        REPO,
+        "--version",
+        "1",
+        "--hub",
+        str(hub.root),
+        needle=f"alice/grasp v1 ({v1.path} is damaged: no {MANIFEST})",
+    )
     cli("hub", "list", "--hub", str(hub.root))
     assert "v1  damaged:" in capsys.readouterr().out
 
 
 # ------------------------------------------------------------------ bad input
 
-@pytest.mark.parametrize("repo_id", ["noslash", "a/b/c", "../x", "a/..", "/abs/x", "a/", "/b", "", "a b/c",
-                                     "a/b@v1", ".hidden/x", "a/b..c", "a/.b", "a/" + "x" * 97, "é/x", "a\\b/c"])
+
+@pytest.mark.parametrize(
+    "repo_id",
+    [
+        "noslash",
+        "a/b/c",
+        "../x",
+        "a/..",
+        "/abs/x",
+        "a/",
+        "/b",
+        "",
+        "a b/c",
+        "a/b@v1",
+        ".hidden/x",
+        "a/b..c",
+        "a/.b",
+        "a/" + "x" * 97,
+        "é/x",
+        "a\\b/c",
+    ],
+)
 def test_bad_repo_ids_are_one_line_errors(hub, sources, repo_id):
     one_line_error(hub.push, sources["a"], repo_id, needle="bad repo id")
     assert not hub.root.exists()  # nothing written
@@ -215,6 +265,7 @@ def _damaged_copies(base: Path, src: Path):
         def edit(root):
             info = json.loads((root / "meta/info.json").read_text())
             (root / "meta/info.json").write_text(json.dumps({**info, **changes}))
+
         return edit
 
     yield copy("nofooter", cut_footer), f"{DATA} is not a readable parquet file"
@@ -244,8 +295,20 @@ def test_bad_versions_and_unknown_datasets_are_one_line_errors(hub, sources, tmp
     one_line_error(hub.version, "bob/other", None, needle="no dataset bob/other")
     for bad in ("vx", "v0", "-1", "v1.0", ""):
         one_line_error(hub.version, REPO, bad, needle="bad version")
-    one_line_error(cli, "hub", "pull", "--repo-id", REPO, "--version", "v2", "--root", str(tmp_path / "o"),
-                   "--hub", str(hub.root), needle="(it has v1)")
+    one_line_error(
+        cli,
+        "hub",
+        "pull",
+        "--repo-id",
+        REPO,
+        "--version",
+        "v2",
+        "--root",
+        str(tmp_path / "o"),
+        "--hub",
+        str(hub.root),
+        needle="(it has v1)",
+    )
     one_line_error(cli, "hub", "verify", "--version", "v1", "--hub", str(hub.root), needle="needs --repo-id")
     assert not (tmp_path / "o").exists()
 
@@ -300,8 +363,12 @@ store.Hub(hub).push(src, repo)
 @pytest.mark.parametrize("moment", ["copying", "publishing", "linking"])
 def test_killed_push_leaves_no_partial_version(hub, sources, moment, capsys):
     hub.push(sources["a"], REPO)
-    r = subprocess.run([sys.executable, "-c", KILLER, str(hub.root), str(sources["b"]), REPO, moment],
-                       capture_output=True, text=True, timeout=60)
+    r = subprocess.run(
+        [sys.executable, "-c", KILLER, str(hub.root), str(sources["b"]), REPO, moment],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert r.returncode == -9, r.stderr
     leftovers = [p.name for p in (hub.root / "alice").iterdir() if atomic.is_temp(p.name)]
     cli("hub", "list", "--hub", str(hub.root), "--json")
@@ -369,12 +436,15 @@ def test_push_replaces_the_empty_folder_a_premature_load_leaves(hub, sources):
 
 # ------------------------------------------------------------------ pull
 
+
 def test_pull_copies_a_verified_version_that_loads(hub, sources, tmp_path, capsys):
     hub.push(sources["a"], REPO)
     hub.push(sources["b"], REPO)
     out = tmp_path / "pulled" / "v1"
-    assert cli("hub", "pull", "--repo-id", REPO, "--version", "v1", "--root", str(out), "--hub", str(hub.root),
-               "--json") == 0
+    assert (
+        cli("hub", "pull", "--repo-id", REPO, "--version", "v1", "--root", str(out), "--hub", str(hub.root), "--json")
+        == 0
+    )
     assert json.loads(capsys.readouterr().out)["version"] == "v1"
     assert rows(out) == sources["rows_a"]
     assert not (out / MANIFEST).exists() and os.access(out / DATA, os.W_OK)  # a plain, writable dataset
@@ -382,8 +452,18 @@ def test_pull_copies_a_verified_version_that_loads(hub, sources, tmp_path, capsy
     hub.pull(REPO, None, tmp_path / "empty")  # the newest, into an empty folder
     assert rows(tmp_path / "empty") == sources["rows_b"]
     one_line_error(hub.pull, REPO, None, out, needle="already exists")
-    one_line_error(cli, "hub", "pull", "--repo-id", REPO, "--root", str(out / DATA / "x"), "--hub", str(hub.root),
-                   needle="cannot pull into")
+    one_line_error(
+        cli,
+        "hub",
+        "pull",
+        "--repo-id",
+        REPO,
+        "--root",
+        str(out / DATA / "x"),
+        "--hub",
+        str(hub.root),
+        needle="cannot pull into",
+    )
     one_line_error(hub.pull, REPO, None, hub.root / "alice/copy", needle="overlaps the hub")
     flip_byte(hub.version(REPO, "v2").path / DATA)
     one_line_error(hub.pull, REPO, "v2", tmp_path / "bad", needle=f"damaged (altered {DATA})")

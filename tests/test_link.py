@@ -12,7 +12,7 @@ from conftest import gloverec, wait_for
 from recorder import GloverecError
 from recorder.link.clock import DeviceClock
 from recorder.link.sources import make_source, open_source
-from recorder.protocol import CommandCode, EventCode, EventFrame, Mode, PoseFrame, RawFrame, StatusFrame, encode_command
+from recorder.protocol import CommandCode, EventCode, EventFrame, Mode, PoseFrame, RawFrame, encode_command
 from recorder.protocol.codec import encode_frame
 from recorder.protocol.frames import identity_pose
 
@@ -138,6 +138,7 @@ def test_a_port_that_is_not_a_glove_fails_cleanly():
     port = os.ttyname(slave)
     os.close(slave)
     import threading
+
     stop = threading.Event()
 
     def chatter():
@@ -166,6 +167,7 @@ def test_monitor_json_report(emulator):
     r = gloverec("monitor", "--port", emu.port, "--duration", "2", "--json")
     assert r.returncode == 0, r.stderr
     import json
+
     rep = json.loads(r.stdout)
     for key in ("frames", "rate_hz", "errors", "gaps", "latency_ms_p50", "latency_ms_p99", "protocol"):
         assert key in rep
@@ -198,15 +200,30 @@ def test_udp_source_counts_lost_and_reordered_datagrams():
 def test_bridge_forwards_serial_frames_to_udp(emulator):
     import subprocess
     import sys
+
     emu = emulator("--rate", "200")
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     sock.bind(("127.0.0.1", 0))
     port = sock.getsockname()[1]
     sock.close()
     with open_source(f"udp:127.0.0.1:{port}") as src:
-        bridge = subprocess.Popen([sys.executable, "-m", "recorder.cli", "bridge", "--port", emu.port,
-                                   "--udp", f"127.0.0.1:{port}", "--duration", "3"],
-                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        bridge = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "recorder.cli",
+                "bridge",
+                "--port",
+                emu.port,
+                "--udp",
+                f"127.0.0.1:{port}",
+                "--duration",
+                "3",
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         frames = collect(src, 200, timeout=5)
         src.send(encode_command(CommandCode.SET_MODE, 0))  # back through the bridge to the glove
         raw = wait_for(lambda: isinstance(src.read(0.1), RawFrame), timeout=3)
@@ -240,11 +257,11 @@ def test_device_clock_unwraps_the_32bit_counter():
 def test_firmware_in_the_loop_through_the_pty(emulator):
     """The compiled glove core is the emulator's firmware: its compact frames reach the reader intact."""
     from recorder.protocol import PoseCompactFrame
+
     emu = emulator("--firmware", "--mode", "compact", "--rate", "200", "--motion", "random")
     with open_source(emu.port) as src:
         frames = collect(src, 300, timeout=10, kind=PoseCompactFrame)
         stats = src.stats()
-        status = [f for f in src.drain() if isinstance(f, StatusFrame)]
     assert len(frames) == 300 and stats.decode["errors"] == 0 and stats.decode["gaps"] == 0
     angles = np.stack([f.angles for f in frames])
     assert np.isfinite(angles).all() and np.ptp(angles, axis=0).max() > 0.1  # after boot calibration it moves

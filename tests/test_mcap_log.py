@@ -61,16 +61,18 @@ def glove_bytes(n: int = 300, seed: int = 1) -> bytes:
     seq = 0
     for i in range(n):
         if i % 50 == 0:
-            f = StatusFrame(seq, i * 5000, firmware=(1, 2, 3), glove_id=0xCAFE0001, sense_rate_hz=200,
-                            output_rate_hz=200)
+            f = StatusFrame(
+                seq, i * 5000, firmware=(1, 2, 3), glove_id=0xCAFE0001, sense_rate_hz=200, output_rate_hz=200
+            )
         elif i % 37 == 0:
             f = EventFrame(seq, i * 5000, EventCode.IMU_FAULT, 3)
         elif i % 3 == 0:
             f = RawFrame(seq, i * 5000, rng.integers(-32768, 32767, (12, 7), dtype=np.int16), ok_mask=0xFF7)
         elif i % 7 == 0:
             q = rng.normal(size=4)
-            f = PoseCompactFrame(seq, i * 5000, (q / np.linalg.norm(q)).astype(np.float32),
-                                 rng.uniform(-1.5, 1.5, 20).astype(np.float32))
+            f = PoseCompactFrame(
+                seq, i * 5000, (q / np.linalg.norm(q)).astype(np.float32), rng.uniform(-1.5, 1.5, 20).astype(np.float32)
+            )
         else:
             q = rng.normal(size=(16, 4))
             f = PoseFrame(seq, i * 5000, (q / np.linalg.norm(q, axis=1, keepdims=True)).astype(np.float32))
@@ -122,15 +124,16 @@ def log(tmp_path):
 
 # ---------------------------------------------------------------- round trip
 
+
 def test_round_trip_bytes_and_frames(log):
     path, chunks, rxs, src, logger = log
     assert len({type(f) for f in src.frames}) == 5 and src.decoder.stats.crc_errors == 1
     with open(path, "rb") as f:
         msgs = [m for _, _, m in make_reader(f).iter_messages(topics=[BYTES_TOPIC])]
-    assert [m.data for m in msgs] == chunks                                   # every raw byte, as read
-    assert [m.log_time - logger.log_time_offset_ns for m in msgs] == rxs      # the time base is invertible
+    assert [m.data for m in msgs] == chunks  # every raw byte, as read
+    assert [m.log_time - logger.log_time_offset_ns for m in msgs] == rxs  # the time base is invertible
     assert all(m.publish_time == m.log_time for m in msgs)
-    assert abs(msgs[0].log_time - time.time_ns()) < 60e9                      # a wall-clock timeline
+    assert abs(msgs[0].log_time - time.time_ns()) < 60e9  # a wall-clock timeline
     assert [c.data for c in iter_chunks(path)] == chunks
     assert [c.rx_ns for c in iter_chunks(path)] == rxs
     decoder = StreamDecoder()
@@ -144,7 +147,7 @@ def test_decoded_channels_match_frames(log):
         msgs = {}
         for _, ch, m in make_reader(f).iter_messages(log_time_order=False):
             if ch.topic != BYTES_TOPIC:
-                    msgs.setdefault(ch.topic, []).append(json.loads(m.data))
+                msgs.setdefault(ch.topic, []).append(json.loads(m.data))
     poses = [f for f in src.frames if isinstance(f, PoseFrame)]
     raws = [f for f in src.frames if isinstance(f, RawFrame)]
     assert len(msgs["/glove/pose"]) == len(poses) and len(msgs["/glove/raw"]) == len(raws)
@@ -261,12 +264,14 @@ def test_concurrent_taps_and_marks(tmp_path):
     path = tmp_path / "c.mcap"
     data = wire(EventFrame(0, 0, EventCode.BUTTON))
     with McapLogger(str(path), chunk_size=2048) as logger:
+
         def marker():
             for i in range(200):
                 logger.mark("m", i=i)
+
         th = threading.Thread(target=marker)
         th.start()
-        for i in range(2000):
+        for _ in range(2000):
             logger(data, time.monotonic_ns(), [])
         th.join()
     info = read_log(path)
@@ -290,6 +295,7 @@ def test_write_error_is_kept_and_raised(tmp_path):
 
 
 # ---------------------------------------------------------------- playback
+
 
 def test_fast_playback_is_lossless_and_faithful(log):
     path, chunks, rxs, src, _ = log
@@ -369,6 +375,7 @@ def test_udp_logs_replay_datagram_boundaries(tmp_path):
 
 # ---------------------------------------------------------------- crashes and bad files
 
+
 def _chunk_layout(path):
     """(end offset, /glove/bytes messages) of every chunk of a complete log."""
     with open(path, "rb") as f:
@@ -379,8 +386,12 @@ def _chunk_layout(path):
         for ci in summary.chunk_indexes:
             f.seek(ci.chunk_start_offset + 9)
             recs = breakup_chunk(Chunk.read(ReadDataStream(f)))
-            out.append((ci.chunk_start_offset + ci.chunk_length,
-                        [r.data for r in recs if getattr(r, "channel_id", None) in ids]))
+            out.append(
+                (
+                    ci.chunk_start_offset + ci.chunk_length,
+                    [r.data for r in recs if getattr(r, "channel_id", None) in ids],
+                )
+            )
     return out
 
 
@@ -392,8 +403,22 @@ def test_truncated_logs_play_up_to_their_last_complete_chunk(tmp_path):
     assert len(layout) >= 5
     data = path.read_bytes()
     ends = [end for end, _ in layout]
-    cuts = sorted({0, 3, 8, 20, 60, 200, len(data) - 1, len(data) - 30, *ends, *[e - 1 for e in ends],
-                   *[e + 1 for e in ends], *range(0, len(data), len(data) // 15)})
+    cuts = sorted(
+        {
+            0,
+            3,
+            8,
+            20,
+            60,
+            200,
+            len(data) - 1,
+            len(data) - 30,
+            *ends,
+            *[e - 1 for e in ends],
+            *[e + 1 for e in ends],
+            *range(0, len(data), len(data) // 15),
+        }
+    )
     cut_path = tmp_path / "cut.mcap"
     for cut in cuts:
         cut_path.write_bytes(data[:cut])
@@ -403,7 +428,7 @@ def test_truncated_logs_play_up_to_their_last_complete_chunk(tmp_path):
         except GloverecError as exc:
             assert cut < 200 and "\n" not in str(exc), (cut, exc)  # only before the first chunk
             continue
-        assert got[:len(expect)] == expect and got == chunks[:len(got)], cut
+        assert got[: len(expect)] == expect and got == chunks[: len(got)], cut
         decoder = StreamDecoder()
         assert [wire(f) for f in iter_frames(cut_path)] == [wire(f) for c in got for f in decoder.feed(c)]
         info = read_log(cut_path)
@@ -418,8 +443,8 @@ def test_truncated_logs_play_up_to_their_last_complete_chunk(tmp_path):
                             seen.append(m.data)
                 except Exception:  # noqa: BLE001 - mcap raises whatever the cut record gives
                     pass
-            assert seen[:len(expect)] == expect
-    cut_path.write_bytes(data[:ends[2] + 10])
+            assert seen[: len(expect)] == expect
+    cut_path.write_bytes(data[: ends[2] + 10])
     with McapSource(str(cut_path), realtime=False) as play:
         n = sum(1 for _ in iter(lambda: play.read(timeout=2.0), None))
         assert play.finished and play.error is None
@@ -455,8 +480,12 @@ for i in range(100000):
 
 def test_killed_writer_leaves_a_playable_log(tmp_path):
     path = tmp_path / "killed.mcap"
-    proc = subprocess.Popen([sys.executable, "-c", CRASH, str(path)], stdout=subprocess.PIPE, cwd=ROOT,
-                            env=os.environ | {"PYTHONPATH": ROOT})
+    proc = subprocess.Popen(
+        [sys.executable, "-c", CRASH, str(path)],
+        stdout=subprocess.PIPE,
+        cwd=ROOT,
+        env=os.environ | {"PYTHONPATH": ROOT},
+    )
     try:
         assert proc.stdout.readline().strip() == b"ready"
         time.sleep(0.3)
@@ -482,8 +511,13 @@ def test_bad_files_raise_one_line_errors(tmp_path):
         w.finish()
     empty = tmp_path / "empty.mcap"
     empty.write_bytes(b"")
-    cases = {text: "not an MCAP file", foreign: "not a gloverec log", empty: "empty or truncated",
-             tmp_path / "missing.mcap": "cannot open", tmp_path: "cannot open"}
+    cases = {
+        text: "not an MCAP file",
+        foreign: "not a gloverec log",
+        empty: "empty or truncated",
+        tmp_path / "missing.mcap": "cannot open",
+        tmp_path: "cannot open",
+    }
     for path, message in cases.items():
         with pytest.raises(GloverecError, match=message) as exc:
             make_source(f"mcap:{path}", realtime=False).open()

@@ -20,7 +20,7 @@ REPO = "test/bcpose"
 
 
 def ok_json(*args: str, timeout: float = 120) -> dict:
-    r = gloverec(*args, "--json", timeout=timeout)   # as a user runs it, in a child process
+    r = gloverec(*args, "--json", timeout=timeout)  # as a user runs it, in a child process
     assert r.returncode == 0, r.stderr[-3000:]
     lines = r.stdout.strip().splitlines()
     assert len(lines) == 1, f"stdout must be exactly one JSON object, got: {r.stdout[:500]}"
@@ -37,8 +37,25 @@ def one_line_error(r: subprocess.CompletedProcess, needle: str, code: int = 1) -
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory) -> Path:
     root = tmp_path_factory.mktemp("bc") / "pose"
-    r = gloverec("record", "--glove", "emulator", "--task", "pose", "--robot", "glovehand", "--episodes", "4",
-                 "--root", str(root), "--repo-id", REPO, "--fast", "--no-log", "--json", timeout=120)
+    r = gloverec(
+        "record",
+        "--glove",
+        "emulator",
+        "--task",
+        "pose",
+        "--robot",
+        "glovehand",
+        "--episodes",
+        "4",
+        "--root",
+        str(root),
+        "--repo-id",
+        REPO,
+        "--fast",
+        "--no-log",
+        "--json",
+        timeout=120,
+    )
     assert r.returncode == 0, r.stderr
     return root
 
@@ -46,8 +63,21 @@ def dataset(tmp_path_factory) -> Path:
 @pytest.fixture(scope="module")
 def trained(dataset, tmp_path_factory) -> tuple[Path, dict]:
     out = tmp_path_factory.mktemp("bc") / "run"
-    summary = ok_json("train", "--repo-id", REPO, "--root", str(dataset), "--steps", "40", "--save-every", "20",
-                      "--batch-size", "64", "--out", str(out))
+    summary = ok_json(
+        "train",
+        "--repo-id",
+        REPO,
+        "--root",
+        str(dataset),
+        "--steps",
+        "40",
+        "--save-every",
+        "20",
+        "--batch-size",
+        "64",
+        "--out",
+        str(out),
+    )
     return out, summary
 
 
@@ -66,6 +96,7 @@ def _bc_policy(dataset):
 
 
 # ---------------------------------------------------------------- the policy, as LeRobot sees it
+
 
 def test_lerobot_factory_knows_the_policy_and_drops_the_glove_input(dataset):
     from lerobot.policies.factory import get_policy_class
@@ -112,15 +143,16 @@ def test_saved_checkpoint_reloads_to_identical_actions(dataset, tmp_path):
     original.reset(env, 123)
     reloaded.reset(env, 123)
     actions = []
-    for _ in range(20):   # temporal ensembling carries state across steps: compare a whole stretch
+    for _ in range(20):  # temporal ensembling carries state across steps: compare a whole stretch
         a, b = original.act(obs), reloaded.act(obs)
         assert np.array_equal(a, b)
         actions.append(a)
         obs, *_ = env.step(a)
-    assert np.ptp(np.stack(actions), axis=0).max() > 0   # not a constant output
+    assert np.ptp(np.stack(actions), axis=0).max() > 0  # not a constant output
 
 
 # ---------------------------------------------------------------- gloverec train
+
 
 def test_train_writes_a_lerobot_checkpoint_split_by_episode(trained, dataset):
     out, summary = trained
@@ -128,8 +160,14 @@ def test_train_writes_a_lerobot_checkpoint_split_by_episode(trained, dataset):
     assert last.is_symlink() and last.resolve().name == "000040"
     assert (out / "checkpoints" / "000020" / "pretrained_model" / "model.safetensors").is_file()
     model = last / "pretrained_model"
-    for name in ("config.json", "model.safetensors", "train_config.json", "policy_preprocessor.json",
-                 "policy_postprocessor.json", "gloverec.json"):
+    for name in (
+        "config.json",
+        "model.safetensors",
+        "train_config.json",
+        "policy_preprocessor.json",
+        "policy_postprocessor.json",
+        "gloverec.json",
+    ):
         assert (model / name).is_file(), name
     assert (last / "training_state" / "optimizer_state.safetensors").is_file()
     train_cfg = json.loads((model / "train_config.json").read_text())
@@ -152,18 +190,33 @@ def test_resume_after_an_interruption_continues_exactly(trained, dataset, tmp_pa
     shutil.rmtree(crashed / "checkpoints" / "000040")
     (crashed / "checkpoints" / "last").unlink()
     (crashed / "checkpoints" / "last").symlink_to("000020")
-    summary = ok_json("train", "--repo-id", REPO, "--root", str(dataset), "--steps", "40", "--save-every", "20",
-                      "--batch-size", "64", "--out", str(crashed), "--resume")
+    summary = ok_json(
+        "train",
+        "--repo-id",
+        REPO,
+        "--root",
+        str(dataset),
+        "--steps",
+        "40",
+        "--save-every",
+        "20",
+        "--batch-size",
+        "64",
+        "--out",
+        str(crashed),
+        "--resume",
+    )
     assert summary["start_step"] == 20
     straight = load_file(out / "checkpoints" / "000040" / "pretrained_model" / "model.safetensors")
     resumed = load_file(crashed / "checkpoints" / "000040" / "pretrained_model" / "model.safetensors")
     assert straight.keys() == resumed.keys()
     assert all(torch.equal(straight[k], resumed[k]) for k in straight)
     first = load_file(out / "checkpoints" / "000020" / "pretrained_model" / "model.safetensors")
-    assert not all(torch.equal(first[k], straight[k]) for k in first)   # training did move the weights
+    assert not all(torch.equal(first[k], straight[k]) for k in first)  # training did move the weights
 
 
 # ---------------------------------------------------------------- gloverec eval
+
 
 def test_metric_succeeds_for_the_demonstrator_and_fails_for_random_actions():
     from policies.evaluate import DemonstratorAgent, RandomAgent, evaluate, make_env
@@ -173,7 +226,7 @@ def test_metric_succeeds_for_the_demonstrator_and_fails_for_random_actions():
     rand = evaluate(RandomAgent(), env, episodes=4, seed=100_000)
     assert demo["success_rate"] == 1.0 and rand["success_rate"] == 0.0
     assert demo["mean_return"] > rand["mean_return"] and rand["episode_lengths"] == [150] * 4
-    assert all(n < 150 for n in demo["episode_lengths"])   # HandPose ends on success
+    assert all(n < 150 for n in demo["episode_lengths"])  # HandPose ends on success
 
 
 def test_eval_json_of_an_untrained_policy_reports_failure(dataset, tmp_path):
@@ -182,8 +235,21 @@ def test_eval_json_of_an_untrained_policy_reports_failure(dataset, tmp_path):
     for part in (policy, pre, post):
         part.save_pretrained(ckpt)
     video = tmp_path / "videos"
-    out = ok_json("eval", "--policy", str(ckpt), "--task", "pose", "--robot", "glovehand", "--episodes", "3",
-                  "--video", str(video), "--videos", "1")
+    out = ok_json(
+        "eval",
+        "--policy",
+        str(ckpt),
+        "--task",
+        "pose",
+        "--robot",
+        "glovehand",
+        "--episodes",
+        "3",
+        "--video",
+        str(video),
+        "--videos",
+        "1",
+    )
     assert out["success_rate"] == 0.0 and out["episodes"] == 3 and out["policy_type"] == "gloverec_bc"
     assert out["episode_lengths"] == [150, 150, 150] and isinstance(out["mean_return"], float)
     assert len(out["videos"]) == 1 and Path(out["videos"][0]).stat().st_size > 1000
@@ -196,11 +262,16 @@ def test_eval_takes_task_robot_and_rate_from_the_checkpoint(trained):
     assert result["policy"].endswith("000040/pretrained_model")
 
 
-@pytest.mark.parametrize("args, needle", [
-    (["--robot", "shadow"],
-     "feature observation.state differs: the policy expects shape (47,), pose on shadow gives (55,)"),
-    (["--task", "grasp"], "feature observation.environment_state differs: the policy expects shape (20,)"),
-])
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (
+            ["--robot", "shadow"],
+            "feature observation.state differs: the policy expects shape (47,), pose on shadow gives (55,)",
+        ),
+        (["--task", "grasp"], "feature observation.environment_state differs: the policy expects shape (20,)"),
+    ],
+)
 def test_mismatched_features_are_refused_in_one_line(trained, args, needle):
     out, _ = trained
     one_line_error(gloverec("eval", "--policy", str(out), "--episodes", "1", *args), needle)
@@ -211,13 +282,16 @@ def test_same_shapes_with_other_feature_names_are_refused(trained, tmp_path):
     ckpt = tmp_path / "renamed"
     shutil.copytree(out / "checkpoints" / "last" / "pretrained_model", ckpt)
     extras = json.loads((ckpt / "gloverec.json").read_text())
-    extras["names"]["action"][0] = "robot0:A_WRJ1"    # as if trained on another hand with as many actuators
+    extras["names"]["action"][0] = "robot0:A_WRJ1"  # as if trained on another hand with as many actuators
     (ckpt / "gloverec.json").write_text(json.dumps(extras))
-    one_line_error(gloverec("eval", "--policy", str(ckpt), "--episodes", "1"),
-                   "feature action differs: element 0 is 'robot0:A_WRJ1' for the policy but 'thumb_cmc_flex'")
+    one_line_error(
+        gloverec("eval", "--policy", str(ckpt), "--episodes", "1"),
+        "feature action differs: element 0 is 'robot0:A_WRJ1' for the policy but 'thumb_cmc_flex'",
+    )
 
 
 # ---------------------------------------------------------------- gloverec replay
+
 
 def test_replay_reproduces_the_recorded_states(dataset):
     n = LeRobotDatasetMetadata(REPO, root=dataset).episodes[1]["length"]
@@ -232,7 +306,7 @@ def test_replay_detects_a_divergence(dataset, tmp_path):
     shutil.copytree(dataset, copy)
     side = copy / "meta" / "gloverec" / "episodes.jsonl"
     rows = [json.loads(line) for line in side.read_text().splitlines()]
-    rows[1]["seed"] = 999   # another start: the same actions from there no longer give the recorded states
+    rows[1]["seed"] = 999  # another start: the same actions from there no longer give the recorded states
     side.write_text("".join(json.dumps(r) + "\n" for r in rows))
     r = gloverec("replay", "--repo-id", REPO, "--root", str(copy), "--episode", "1", "--json")
     assert r.returncode == 1 and "diverged from the recording at step 0" in r.stderr
@@ -242,39 +316,71 @@ def test_replay_detects_a_divergence(dataset, tmp_path):
 
 # ---------------------------------------------------------------- bad input
 
-@pytest.mark.parametrize("args, needle, code", [
-    (["train", "--repo-id", REPO, "--root", "/nonexistent", "--out", "x", "--steps", "1"], "not a LeRobot dataset", 1),
-    (["train", "--repo-id", "../evil", "--root", ".", "--out", "x"], "bad repo id", 1),
-    (["train", "--repo-id", REPO, "--hub", "/nonexistent-hub", "--out", "x"], "no hub at /nonexistent-hub", 1),
-    (["train", "--repo-id", REPO, "--out", "x", "--steps", "0"], "must be positive", 2),
-    (["eval", "--policy", "/nonexistent", "--episodes", "1"], "holds no LeRobot policy", 1),
-    (["eval", "--policy", "random", "--episodes", "1"], "needs --task and --robot", 1),
-    (["eval", "--policy", "demonstrator", "--task", "juggle", "--robot", "glovehand"], "unknown task", 1),
-])
+
+@pytest.mark.parametrize(
+    "args, needle, code",
+    [
+        (
+            ["train", "--repo-id", REPO, "--root", "/nonexistent", "--out", "x", "--steps", "1"],
+            "not a LeRobot dataset",
+            1,
+        ),
+        (["train", "--repo-id", "../evil", "--root", ".", "--out", "x"], "bad repo id", 1),
+        (["train", "--repo-id", REPO, "--hub", "/nonexistent-hub", "--out", "x"], "no hub at /nonexistent-hub", 1),
+        (["train", "--repo-id", REPO, "--out", "x", "--steps", "0"], "must be positive", 2),
+        (["eval", "--policy", "/nonexistent", "--episodes", "1"], "holds no LeRobot policy", 1),
+        (["eval", "--policy", "random", "--episodes", "1"], "needs --task and --robot", 1),
+        (["eval", "--policy", "demonstrator", "--task", "juggle", "--robot", "glovehand"], "unknown task", 1),
+    ],
+)
 def test_bad_input_is_one_line(args, needle, code):
     one_line_error(gloverec(*args), needle, code)
 
 
 def test_bad_input_on_real_data_is_one_line(dataset, trained, tmp_path):
     out, _ = trained
-    one_line_error(gloverec("replay", "--repo-id", REPO, "--root", str(dataset), "--episode", "9"),
-                   "has no episode 9 (it has 4: 0..3)")
-    one_line_error(gloverec("train", "--repo-id", REPO, "--root", str(dataset), "--out", str(out)),
-                   "already exists: pass --resume")
-    one_line_error(gloverec("train", "--repo-id", REPO, "--root", str(dataset), "--out", str(tmp_path / "new"),
-                                "--resume"), "nothing to resume")
+    one_line_error(
+        gloverec("replay", "--repo-id", REPO, "--root", str(dataset), "--episode", "9"),
+        "has no episode 9 (it has 4: 0..3)",
+    )
+    one_line_error(
+        gloverec("train", "--repo-id", REPO, "--root", str(dataset), "--out", str(out)), "already exists: pass --resume"
+    )
+    one_line_error(
+        gloverec("train", "--repo-id", REPO, "--root", str(dataset), "--out", str(tmp_path / "new"), "--resume"),
+        "nothing to resume",
+    )
 
 
 # ---------------------------------------------------------------- cameras
 
+
 def test_a_camera_dataset_trains_an_image_policy_that_eval_gives_its_camera(tmp_path):
     root = tmp_path / "cam"
-    r = gloverec("record", "--glove", "emulator", "--task", "pose", "--episodes", "2", "--cameras", "front",
-                 "--root", str(root), "--repo-id", "test/cam", "--fast", "--no-log", "--json", timeout=120)
+    r = gloverec(
+        "record",
+        "--glove",
+        "emulator",
+        "--task",
+        "pose",
+        "--episodes",
+        "2",
+        "--cameras",
+        "front",
+        "--root",
+        str(root),
+        "--repo-id",
+        "test/cam",
+        "--fast",
+        "--no-log",
+        "--json",
+        timeout=120,
+    )
     assert r.returncode == 0, r.stderr
     out = tmp_path / "run"
-    ok_json("train", "--repo-id", "test/cam", "--root", str(root), "--steps", "5", "--batch-size", "8",
-            "--out", str(out))
+    ok_json(
+        "train", "--repo-id", "test/cam", "--root", str(root), "--steps", "5", "--batch-size", "8", "--out", str(out)
+    )
     features = json.loads((out / "checkpoints" / "last" / "pretrained_model" / "config.json").read_text())
     assert features["input_features"]["observation.images.front"]["shape"] == [3, 128, 128]
     from policies.data import resolve
@@ -283,5 +389,5 @@ def test_a_camera_dataset_trains_an_image_policy_that_eval_gives_its_camera(tmp_
 
     result = evaluate_checkpoint(out, None, None, episodes=1, video_dir=tmp_path / "v", videos=1)
     assert result["episodes"] == 1 and Path(result["videos"][0]).stat().st_size > 1000
-    replayed = replay(resolve("test/cam", root=root), 1)   # states only: no video is decoded
+    replayed = replay(resolve("test/cam", root=root), 1)  # states only: no video is decoded
     assert replayed["reproduced"] and replayed["max_abs"] == 0.0

@@ -9,7 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from test_policies import REPO, dataset, ok_json  # noqa: F401  (the module-scoped recorded dataset)
+from test_policies import REPO, dataset, ok_json  # noqa: F401, F811  (the module-scoped recorded dataset)
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 LEROBOT_TRAIN = Path(sys.executable).with_name("lerobot-train")
@@ -19,23 +19,60 @@ def _install_plugin(target: Path) -> None:
     """pip-install the plugin into a folder (not the venv): a real distribution named lerobot_policy_gloverec."""
     src = target.parent / "plugin-src"
     shutil.copytree(REPO_ROOT / "policies" / "plugin", src)
-    r = subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--no-build-isolation",
-                        "--target", str(target), str(src)], capture_output=True, text=True, timeout=120)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "install",
+            "-q",
+            "--no-deps",
+            "--no-build-isolation",
+            "--target",
+            str(target),
+            str(src),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert r.returncode == 0, r.stderr[-2000:]
     assert (target / "lerobot_policy_gloverec").is_dir()
 
 
-def test_lerobot_train_trains_gloverec_bc_through_the_plugin_and_gloverec_evaluates_it(dataset, tmp_path):
+def test_lerobot_train_trains_gloverec_bc_through_the_plugin_and_gloverec_evaluates_it(dataset, tmp_path):  # noqa: F811
     plugin = tmp_path / "site"
     _install_plugin(plugin)
     out = tmp_path / "lerobot-run"
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(plugin), os.environ.get("PYTHONPATH")])),
-           "OMP_NUM_THREADS": "1", "HF_HUB_OFFLINE": "1"}
-    r = subprocess.run([str(LEROBOT_TRAIN), f"--dataset.repo_id={REPO}", f"--dataset.root={dataset}",
-                        "--policy.type=gloverec_bc", "--policy.device=cpu", "--policy.push_to_hub=false",
-                        "--policy.hidden_dim=64", "--steps=10", "--batch_size=16", f"--output_dir={out}",
-                        "--num_workers=0", "--save_freq=10", "--log_freq=5", "--eval_freq=0"],
-                       capture_output=True, text=True, timeout=240, env=env, cwd=tmp_path)
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join(filter(None, [str(plugin), os.environ.get("PYTHONPATH")])),
+        "OMP_NUM_THREADS": "1",
+        "HF_HUB_OFFLINE": "1",
+    }
+    r = subprocess.run(
+        [
+            str(LEROBOT_TRAIN),
+            f"--dataset.repo_id={REPO}",
+            f"--dataset.root={dataset}",
+            "--policy.type=gloverec_bc",
+            "--policy.device=cpu",
+            "--policy.push_to_hub=false",
+            "--policy.hidden_dim=64",
+            "--steps=10",
+            "--batch_size=16",
+            f"--output_dir={out}",
+            "--num_workers=0",
+            "--save_freq=10",
+            "--log_freq=5",
+            "--eval_freq=0",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=240,
+        env=env,
+        cwd=tmp_path,
+    )
     assert r.returncode == 0, r.stderr[-3000:]
     model = out / "checkpoints" / "last" / "pretrained_model"
     assert json.loads((model / "config.json").read_text())["type"] == "gloverec_bc"
@@ -59,9 +96,9 @@ def test_lerobot_plugin_discovery_is_what_registers_the_policy(tmp_path):
         "before = 'gloverec_bc' in PreTrainedConfig.get_known_choices()\n"
         "register_third_party_plugins()\n"
         "after = 'gloverec_bc' in PreTrainedConfig.get_known_choices()\n"
-        "print(before, after, 'policies.bc' in sys.modules)\n")
+        "print(before, after, 'policies.bc' in sys.modules)\n"
+    )
     env = {**os.environ, "PYTHONPATH": str(plugin), "HF_HUB_OFFLINE": "1"}
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=env,
-                       cwd=tmp_path)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=env, cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-2000:]
     assert r.stdout.split() == ["False", "True", "True"]

@@ -11,8 +11,19 @@ from hypothesis import strategies as st
 from recorder import quat
 from recorder.hand.kinematics import LIMITS, forward, relative_quats
 from recorder.protocol import (
-    Command, CommandCode, EventCode, EventFrame, Mode, PoseCompactFrame, PoseFrame, RawFrame, StatusFrame,
-    StreamDecoder, decode_frame, encode_command, encode_frame,
+    Command,
+    CommandCode,
+    EventCode,
+    EventFrame,
+    Mode,
+    PoseCompactFrame,
+    PoseFrame,
+    RawFrame,
+    StatusFrame,
+    StreamDecoder,
+    decode_frame,
+    encode_command,
+    encode_frame,
 )
 from recorder.protocol.codec import FrameError, frame_body
 from recorder.protocol.frames import CalibState, identity_pose
@@ -38,21 +49,32 @@ def frames(draw):
         return PoseFrame(seq, t, draw(unit_quats()), draw(u16))
     if kind == "pose_compact":  # radians, beyond the +-204.7 deg range too, and "no value"
         angle = st.one_of(st.floats(-4, 4, width=32), st.just(float("nan")))
-        return PoseCompactFrame(seq, t, draw(unit_quats(1))[0], np.array(draw(st.lists(angle, min_size=20,
-                                                                                          max_size=20)), np.float32))
+        return PoseCompactFrame(
+            seq, t, draw(unit_quats(1))[0], np.array(draw(st.lists(angle, min_size=20, max_size=20)), np.float32)
+        )
     if kind == "raw":
         n = draw(st.integers(1, 16))
         data = np.array(draw(st.lists(i16, min_size=7 * n, max_size=7 * n)), np.int16).reshape(n, 7)
-        return RawFrame(seq, t, data, draw(st.sampled_from([2, 4, 8, 16])),
-                        draw(st.sampled_from([250, 500, 1000, 2000])), draw(u16))
+        return RawFrame(
+            seq, t, data, draw(st.sampled_from([2, 4, 8, 16])), draw(st.sampled_from([250, 500, 1000, 2000])), draw(u16)
+        )
     if kind == "status":
         n = draw(st.integers(0, 16))
-        return StatusFrame(seq, t, tuple(draw(st.lists(st.integers(0, 255), min_size=3, max_size=3))),
-                           draw(st.sampled_from(list(Mode))), draw(u16), draw(u16),
-                           draw(st.sampled_from(list(CalibState))), draw(st.integers(0, 100)),
-                           draw(st.integers(0, 255)), draw(u32), draw(u16),
-                           tuple(draw(st.lists(st.integers(0, 7), min_size=n, max_size=n))),
-                           tuple(draw(st.lists(st.integers(0, 15), min_size=n, max_size=n))))
+        return StatusFrame(
+            seq,
+            t,
+            tuple(draw(st.lists(st.integers(0, 255), min_size=3, max_size=3))),
+            draw(st.sampled_from(list(Mode))),
+            draw(u16),
+            draw(u16),
+            draw(st.sampled_from(list(CalibState))),
+            draw(st.integers(0, 100)),
+            draw(st.integers(0, 255)),
+            draw(u32),
+            draw(u16),
+            tuple(draw(st.lists(st.integers(0, 7), min_size=n, max_size=n))),
+            tuple(draw(st.lists(st.integers(0, 15), min_size=n, max_size=n))),
+        )
     if kind == "event":
         return EventFrame(seq, t, draw(st.sampled_from(list(EventCode))), draw(st.integers(0, 255)))
     code = draw(st.sampled_from(list(CommandCode)))
@@ -135,6 +157,7 @@ def test_crc_is_crc32_iso_hdlc():
 def test_crc_mismatch_and_bad_version_are_told_apart():
     body = bytearray(frame_body(EventFrame(7, 9, EventCode.BUTTON)))
     from cobs import cobs
+
     bad_crc = bytearray(body)
     bad_crc[8] ^= 1
     with pytest.raises(FrameError) as e:
@@ -148,8 +171,11 @@ def test_crc_mismatch_and_bad_version_are_told_apart():
     assert not e.value.crc
 
 
-@given(st.lists(frames(), min_size=1, max_size=8), st.lists(st.binary(max_size=40), min_size=9, max_size=9),
-       st.integers(1, 64))
+@given(
+    st.lists(frames(), min_size=1, max_size=8),
+    st.lists(st.binary(max_size=40), min_size=9, max_size=9),
+    st.integers(1, 64),
+)
 @settings(suppress_health_check=[HealthCheck.too_slow], max_examples=150)
 def test_resynchronises_after_garbage_in_any_chunking(fs, garbage, chunk):
     # garbage ends with a delimiter so it cannot merge into the frame after it; seq numbers increase
@@ -158,7 +184,7 @@ def test_resynchronises_after_garbage_in_any_chunking(fs, garbage, chunk):
     dec = StreamDecoder("binary")
     out = []
     for i in range(0, len(stream), chunk):
-        out += dec.feed(stream[i:i + chunk])
+        out += dec.feed(stream[i : i + chunk])
     assert len(out) == len(fs)
     assert all(same(quantised(a), b) for a, b in zip(fs, out))
 
@@ -192,7 +218,7 @@ def test_a_corrupted_frame_is_never_accepted(frame, data):
 def test_random_bytes_never_raise(blob, protocol):
     dec = StreamDecoder(protocol)
     for i in range(0, len(blob), 97):
-        dec.feed(blob[i:i + 97])
+        dec.feed(blob[i : i + 97])
     dec.feed(b"", boundary=True)
     assert dec.stats.bytes == len(blob)
 
@@ -211,10 +237,12 @@ def test_sequence_wraps_without_a_gap():
     assert len(out) == 15 and dec.stats.gaps == 0
 
 
-THESIS_LINE = json.dumps({
-    "wrists": {"w": 1.0, "x": 0.0, "y": 0.0, "z": 0.0},
-    "fingers": [{"joints": [{"w": 0.9238795, "x": 0.0, "y": 0.3826834, "z": 0.0}] * 3} for _ in range(5)],
-})
+THESIS_LINE = json.dumps(
+    {
+        "wrists": {"w": 1.0, "x": 0.0, "y": 0.0, "z": 0.0},
+        "fingers": [{"joints": [{"w": 0.9238795, "x": 0.0, "y": 0.3826834, "z": 0.0}] * 3} for _ in range(5)],
+    }
+)
 
 
 def test_legacy_json_maps_fingers_and_joints_onto_segments():
@@ -228,12 +256,18 @@ def test_legacy_json_maps_fingers_and_joints_onto_segments():
     assert np.allclose(decode_line(encode_line(q)).quats[5], (0, 1, 0, 0))
 
 
-@pytest.mark.parametrize("line", [
-    "{", "[]", '{"wrists": {"w": 1}}', THESIS_LINE.replace('"w": 1.0', '"w": "a"'),
-    json.dumps({"wrists": {"w": 0, "x": 0, "y": 0, "z": 0}, "fingers": json.loads(THESIS_LINE)["fingers"]}),
-    json.dumps({"wrists": {"w": 1, "x": 0, "y": 0, "z": 0}, "fingers": json.loads(THESIS_LINE)["fingers"][:4]}),
-    THESIS_LINE.replace("0.9238795", "NaN"),
-])
+@pytest.mark.parametrize(
+    "line",
+    [
+        "{",
+        "[]",
+        '{"wrists": {"w": 1}}',
+        THESIS_LINE.replace('"w": 1.0', '"w": "a"'),
+        json.dumps({"wrists": {"w": 0, "x": 0, "y": 0, "z": 0}, "fingers": json.loads(THESIS_LINE)["fingers"]}),
+        json.dumps({"wrists": {"w": 1, "x": 0, "y": 0, "z": 0}, "fingers": json.loads(THESIS_LINE)["fingers"][:4]}),
+        THESIS_LINE.replace("0.9238795", "NaN"),
+    ],
+)
 def test_malformed_json_lines_are_rejected(line):
     with pytest.raises(JsonFrameError):
         decode_line(line)

@@ -80,18 +80,33 @@ def test_sidecar_counts_and_log_ranges(pose_dataset):
         assert s["log"]["file"] == summary["log"]
     assert (root / summary["log"]).stat().st_size > 1000
     from recorder.log.playback import read_log
+
     marks = read_log(root / summary["log"]).marks
     assert [m["name"] for m in marks].count("episode_end") == 3
 
 
 def test_sigkill_during_recording_keeps_saved_episodes_and_resume_continues(tmp_path):
     root = tmp_path / "ds"
-    args = [sys.executable, "-m", "recorder.cli", "record", "--episodes", "50", "--root", str(root),
-            "--repo-id", "test/kill"]
+    args = [
+        sys.executable,
+        "-m",
+        "recorder.cli",
+        "record",
+        "--episodes",
+        "50",
+        "--root",
+        str(root),
+        "--repo-id",
+        "test/kill",
+    ]
     saved = 0
     for delay in (0.2, 1.3):  # after the first saved episode (start-up time varies with the machine)
-        proc = subprocess.Popen(args + (["--resume"] if saved or root.is_symlink() else []),
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        proc = subprocess.Popen(
+            args + (["--resume"] if saved or root.is_symlink() else []),
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         first = ""
         while "saved:" not in first:
             first = proc.stderr.readline()
@@ -108,15 +123,18 @@ def test_sigkill_during_recording_keeps_saved_episodes_and_resume_continues(tmp_
     assert [s["episode_index"] for s in read_sidecar(root)] == list(range(summary["total_episodes"]))
 
 
-@pytest.mark.parametrize("args, needle", [
-    (["--robot", "r2d2"], "unknown robot"),
-    (["--task", "juggle"], "unknown task"),
-    (["--repo-id", "../evil"], "bad repo id"),
-    (["--repo-id", "noslash"], "bad repo id"),
-    (["--fps", "0"], "fps"),
-    (["--task", "grasp", "--episode-time-s", "1"], "too short"),
-    (["--glove", "/dev/does-not-exist"], "no such port"),
-])
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (["--robot", "r2d2"], "unknown robot"),
+        (["--task", "juggle"], "unknown task"),
+        (["--repo-id", "../evil"], "bad repo id"),
+        (["--repo-id", "noslash"], "bad repo id"),
+        (["--fps", "0"], "fps"),
+        (["--task", "grasp", "--episode-time-s", "1"], "too short"),
+        (["--glove", "/dev/does-not-exist"], "no such port"),
+    ],
+)
 def test_bad_input_is_one_line(tmp_path, args, needle):
     r = gloverec("record", "--episodes", "1", "--root", str(tmp_path / "ds"), *args)
     assert r.returncode == 1, r.stderr
@@ -134,17 +152,34 @@ class Session:
 
     def __init__(self, port, root, *extra):
         import threading
-        self.proc = subprocess.Popen([sys.executable, "-m", "recorder.cli", "record", "--glove",
-                                      f"serial:{port}", "--root", str(root), "--repo-id", "test/live", "--json",
-                                      *extra], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                     stderr=subprocess.PIPE, text=True)
+
+        self.proc = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "recorder.cli",
+                "record",
+                "--glove",
+                f"serial:{port}",
+                "--root",
+                str(root),
+                "--repo-id",
+                "test/live",
+                "--json",
+                *extra,
+            ],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         self.lines = []
-        self._t = threading.Thread(target=lambda: self.lines.extend(iter(self.proc.stderr.readline, "")),
-                                   daemon=True)
+        self._t = threading.Thread(target=lambda: self.lines.extend(iter(self.proc.stderr.readline, "")), daemon=True)
         self._t.start()
 
     def wait_for(self, text, timeout=60):
         from conftest import wait_for
+
         assert wait_for(lambda: any(text in ln for ln in self.lines), timeout), self.lines
 
     def key(self, line):
@@ -162,8 +197,18 @@ class Session:
 
 def test_keyboard_lines_end_rerecord_and_stop(emulator, tmp_path):
     emu = emulator("--rate", "200")
-    rec = Session(emu.port, tmp_path / "ds", "--episodes", "5", "--episode-time-s", "4", "--reset-time-s", "0.2",
-                  "--task", "grasp")  # grasp episodes never end early on success: the keys decide
+    rec = Session(
+        emu.port,
+        tmp_path / "ds",
+        "--episodes",
+        "5",
+        "--episode-time-s",
+        "4",
+        "--reset-time-s",
+        "0.2",
+        "--task",
+        "grasp",
+    )  # grasp episodes never end early on success: the keys decide
     rec.wait_for("episode 0 started")
     time.sleep(0.5)
     rec.key("rerecord")
@@ -171,11 +216,11 @@ def test_keyboard_lines_end_rerecord_and_stop(emulator, tmp_path):
     rec.wait_for("episode 0 started: ", timeout=30)
     assert wait_for(lambda: sum("episode 0 started" in ln for ln in rec.lines) == 2, 30)
     time.sleep(0.8)
-    rec.key("next")           # ends the re-recorded episode 0 early
+    rec.key("next")  # ends the re-recorded episode 0 early
     rec.wait_for("episode 0 saved")
     rec.wait_for("episode 1 started")
     time.sleep(0.8)
-    rec.key("stop")           # saves episode 1 so far and ends the session
+    rec.key("stop")  # saves episode 1 so far and ends the session
     summary, _ = rec.finish()
     assert summary["episodes_saved"] == 2 and summary["rerecorded"] == 1
     side = read_sidecar(tmp_path / "ds")
@@ -185,8 +230,18 @@ def test_keyboard_lines_end_rerecord_and_stop(emulator, tmp_path):
 
 def test_unplug_discards_the_episode_and_recording_carries_on(emulator, tmp_path):
     emu = emulator("--rate", "200")
-    rec = Session(emu.port, tmp_path / "ds", "--episodes", "2", "--episode-time-s", "3.6", "--reset-time-s", "0.2",
-                  "--task", "grasp")
+    rec = Session(
+        emu.port,
+        tmp_path / "ds",
+        "--episodes",
+        "2",
+        "--episode-time-s",
+        "3.6",
+        "--reset-time-s",
+        "0.2",
+        "--task",
+        "grasp",
+    )
     rec.wait_for("episode 0 started")
     time.sleep(0.5)
     emu.unplug()
@@ -209,8 +264,17 @@ def test_rerecord_rebuilds_the_dataset_from_its_log(pose_dataset, tmp_path):
     for i in range(0, len(a), 7):  # the same glove bytes, the same seeds: the same demonstrations
         assert np.allclose(a[i]["observation.glove"], b[i]["observation.glove"], atol=1e-4)
         assert np.allclose(a[i]["action"], b[i]["action"], atol=1e-4)
-    other = record_cmd("rerecord", "--log", str(log), "--repo-id", "test/shadow", "--root",
-                       str(tmp_path / "shadow"), "--robot", "shadow")
+    other = record_cmd(
+        "rerecord",
+        "--log",
+        str(log),
+        "--repo-id",
+        "test/shadow",
+        "--root",
+        str(tmp_path / "shadow"),
+        "--robot",
+        "shadow",
+    )
     ds = LeRobotDataset("test/shadow", root=tmp_path / "shadow")
     assert other["total_episodes"] == 3 and ds.meta.robot_type == "shadow" and len(ds) == len(a)
     r = gloverec("rerecord", "--log", str(tmp_path / "nope.mcap"), "--repo-id", "test/x")
@@ -220,8 +284,9 @@ def test_rerecord_rebuilds_the_dataset_from_its_log(pose_dataset, tmp_path):
 def test_inspect_reports_episodes_and_plots(pose_dataset, tmp_path):
     root, _ = pose_dataset
     png = tmp_path / "plot.png"
-    r = gloverec("inspect", "--repo-id", "test/pose", "--root", str(root), "--episode", "1", "--plot", str(png),
-                 "--json")
+    r = gloverec(
+        "inspect", "--repo-id", "test/pose", "--root", str(root), "--episode", "1", "--plot", str(png), "--json"
+    )
     assert r.returncode == 0, r.stderr
     rep = json.loads(r.stdout)
     assert [e["episode"] for e in rep["episodes"]] == [0, 1, 2]
@@ -241,10 +306,25 @@ def test_a_raw_glove_in_real_time_starts_its_first_episode_once_fusion_has_a_pos
     """Host fusion shows its first pose after ~1 s of rest; a reset period shorter than that must not start an
     episode without a pose (which would count as a lost glove and record the episode again)."""
     emu = emulator("--rate", "200", "--mode", "raw")
-    env = {**os.environ, "GLOVEREC_CALIBRATION_DIR": str(tmp_path / "cal")}   # none saved: uncalibrated
-    r = gloverec("record", "--glove", f"serial:{emu.port}", "--episodes", "1", "--episode-time-s", "1",
-                 "--reset-time-s", "0.1", "--root", str(tmp_path / "ds"), "--repo-id", "test/raw", "--json",
-                 timeout=120, env=env)
+    env = {**os.environ, "GLOVEREC_CALIBRATION_DIR": str(tmp_path / "cal")}  # none saved: uncalibrated
+    r = gloverec(
+        "record",
+        "--glove",
+        f"serial:{emu.port}",
+        "--episodes",
+        "1",
+        "--episode-time-s",
+        "1",
+        "--reset-time-s",
+        "0.1",
+        "--root",
+        str(tmp_path / "ds"),
+        "--repo-id",
+        "test/raw",
+        "--json",
+        timeout=120,
+        env=env,
+    )
     assert r.returncode == 0, r.stderr
     summary = json.loads(r.stdout.strip().splitlines()[-1])
     assert summary["episodes_saved"] == 1 and summary["lost"] == 0, r.stderr
@@ -263,5 +343,5 @@ def test_real_time_episodes_run_without_cyclic_gc_and_restore_it():
     with pytest.raises(RuntimeError), _no_gc_pauses(enabled=True):
         raise RuntimeError("an episode that fails")
     assert gc.isenabled()
-    with _no_gc_pauses(enabled=False):   # faster than real time: collections as usual
+    with _no_gc_pauses(enabled=False):  # faster than real time: collections as usual
         assert gc.isenabled()

@@ -54,8 +54,12 @@ def test_sigkill_at_many_moments_keeps_every_saved_episode(tmp_path):
     saved = 0
     rng = np.random.default_rng(7)
     for delay in rng.uniform(0.0, 1.0, 5):  # after the writer's first save: any moment of the next ones
-        proc = subprocess.Popen([sys.executable, "-c", WRITER, str(root), feats], stdout=subprocess.PIPE,
-                                stderr=subprocess.DEVNULL, text=True)
+        proc = subprocess.Popen(
+            [sys.executable, "-c", WRITER, str(root), feats],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            text=True,
+        )
         first = proc.stdout.readline()  # blocks until an episode is saved (startup time varies with load)
         assert first.startswith("saved"), first
         time.sleep(delay)
@@ -71,11 +75,13 @@ def test_resume_appends_and_refuses_a_different_dataset(tmp_path):
     root = tmp_path / "ds"
     store = EpisodeStore(root, "test/crash", 30, FEATURES, "glovehand")
     for i in range(40):
-        store.add_frame({"observation.state": np.full(3, i, np.float32), "action": np.zeros(3, np.float32),
-                         "task": "task 0"})
+        store.add_frame(
+            {"observation.state": np.full(3, i, np.float32), "action": np.zeros(3, np.float32), "task": "task 0"}
+        )
     store.save_episode({})
-    store.add_frame({"observation.state": np.zeros(3, np.float32), "action": np.zeros(3, np.float32),
-                     "task": "task 0"})  # an episode in progress, never saved
+    store.add_frame(
+        {"observation.state": np.zeros(3, np.float32), "action": np.zeros(3, np.float32), "task": "task 0"}
+    )  # an episode in progress, never saved
     store.close()
     with pytest.raises(GloverecError, match="--resume"):
         EpisodeStore(root, "test/crash", 30, FEATURES, "glovehand")
@@ -89,8 +95,9 @@ def test_resume_appends_and_refuses_a_different_dataset(tmp_path):
     store = EpisodeStore(root, "test/crash", 30, FEATURES, "glovehand", resume=True)
     assert store.num_episodes == 1
     for i in range(40):
-        store.add_frame({"observation.state": np.full(3, 1000 + i, np.float32), "action": np.ones(3, np.float32),
-                         "task": "task 1"})
+        store.add_frame(
+            {"observation.state": np.full(3, 1000 + i, np.float32), "action": np.ones(3, np.float32), "task": "task 1"}
+        )
     store.save_episode({})
     store.close()
     assert check_dataset(root, 2) == 2

@@ -14,18 +14,25 @@ from recorder.record.episode_stats import episode_stats
 from recorder.record.store import EpisodeStore, read_sidecar
 from recorder.record.writer import EpisodeWriter
 
-FEATURES = {"observation.state": {"dtype": "float32", "shape": (3,), "names": None},
-            "action": {"dtype": "float32", "shape": (3,), "names": None}}
+FEATURES = {
+    "observation.state": {"dtype": "float32", "shape": (3,), "names": None},
+    "action": {"dtype": "float32", "shape": (3,), "names": None},
+}
 finite = st.floats(-1e3, 1e3, allow_nan=False, width=32)
 
 
 @settings(max_examples=150, deadline=None)
 @example(np.zeros((2, 1), np.float32), np.array([1e-45, 0.0], np.float32))  # subnormals: found by CI
-@given(arrays(np.float32, st.tuples(st.integers(2, 60), st.integers(1, 5)), elements=finite),
-       arrays(np.float32, st.integers(2, 60), elements=finite))
+@given(
+    arrays(np.float32, st.tuples(st.integers(2, 60), st.integers(1, 5)), elements=finite),
+    arrays(np.float32, st.integers(2, 60), elements=finite),
+)
 def test_episode_stats_match_lerobot_layout_and_values(vec, scalar):
-    features = {"v": {"dtype": "float32", "shape": vec.shape[1:]}, "s": {"dtype": "float32", "shape": (1,)},
-                "task": {"dtype": "string", "shape": (1,)}}
+    features = {
+        "v": {"dtype": "float32", "shape": vec.shape[1:]},
+        "s": {"dtype": "float32", "shape": (1,)},
+        "task": {"dtype": "string", "shape": (1,)},
+    }
     data = {"v": vec, "s": scalar, "task": ["t"] * len(scalar)}
     ours, theirs = episode_stats(data, features), compute_episode_stats(data, features)
     assert ours.keys() == theirs.keys() == {"v", "s"}
@@ -63,8 +70,13 @@ def test_exact_quantiles_where_lerobot_approximates():
 
 def _frames(store, n, value):
     for i in range(n):
-        store.add_frame({"observation.state": np.full(3, value + i, np.float32),
-                         "action": np.full(3, -value - i, np.float32), "task": f"task {value}"})
+        store.add_frame(
+            {
+                "observation.state": np.full(3, value + i, np.float32),
+                "action": np.full(3, -value - i, np.float32),
+                "task": f"task {value}",
+            }
+        )
 
 
 def test_writer_process_saves_in_order_and_reports(tmp_path):
@@ -76,14 +88,14 @@ def test_writer_process_saves_in_order_and_reports(tmp_path):
         assert store.next_index == e
         writer.submit(store.take_episode(), {"marker": e})
     _frames(store, 4, 999)
-    store.discard_episode()            # an episode in progress, dropped: its index is reused
+    store.discard_episode()  # an episode in progress, dropped: its index is reused
     assert store.next_index == 3
     done = writer.results(wait=True) + writer.close()
     store.close()
     assert [(i, s["marker"]) for i, s in done] == [(0, 0), (1, 1), (2, 2)]
     ds = LeRobotDataset("test/writer", root=root)
     assert ds.num_episodes == 3 and ds.num_frames == 5 + 6 + 7
-    assert float(ds[5]["observation.state"][0]) == 100.0          # episode 1, frame 0
+    assert float(ds[5]["observation.state"][0]) == 100.0  # episode 1, frame 0
     assert [s["marker"] for s in read_sidecar(root)] == [0, 1, 2]
 
 
@@ -95,7 +107,7 @@ def test_writer_failure_is_one_clear_error_and_saved_episodes_stay(tmp_path):
     writer.submit(store.take_episode(), {})
     _frames(store, 5, 10)
     bad = store.take_episode()
-    bad["episode_index"] = 7              # not the next index: lerobot refuses to save it
+    bad["episode_index"] = 7  # not the next index: lerobot refuses to save it
     writer.submit(bad, {})
     with pytest.raises(GloverecError, match="saving episode 7 failed"):
         writer.results(wait=True)

@@ -9,7 +9,7 @@ from envs.robots import load_robot
 from recorder import quat
 from recorder.emulator.motion import GESTURES, Motion
 from recorder.hand.kinematics import JOINTS
-from recorder.retarget import Retargeter, RetargetConfigError, load_retarget_config
+from recorder.retarget import RetargetConfigError, Retargeter, load_retarget_config
 from recorder.retarget.fit import mean_tip_error, sample_poses
 
 
@@ -95,10 +95,10 @@ def test_shadow_open_and_fist():
     fist, _ = r(GESTURES["fist"])
     get = lambda a, j: a[names.index(f"robot0:A_{j}")]  # noqa: E731
     for f in "FMRL":
-        assert get(open_, f"{f}FJ2") < 0.2 and get(open_, f"{f}FJ1") < 0.2      # straight fingers
-        assert get(fist, f"{f}FJ2") > 1.0 and get(fist, f"{f}FJ1") > 0.6       # curled
-    assert get(fist, "THJ3") > get(open_, "THJ3") + 0.3                          # thumb brought in
-    assert get(open_, "WRJ1") == 0 and get(fist, "WRJ0") == 0                   # wrist held straight
+        assert get(open_, f"{f}FJ2") < 0.2 and get(open_, f"{f}FJ1") < 0.2  # straight fingers
+        assert get(fist, f"{f}FJ2") > 1.0 and get(fist, f"{f}FJ1") > 0.6  # curled
+    assert get(fist, "THJ3") > get(open_, "THJ3") + 0.3  # thumb brought in
+    assert get(open_, "WRJ1") == 0 and get(fist, "WRJ0") == 0  # wrist held straight
     # the fist puts the robot's fingertips near the scaled human ones
     assert r(GESTURES["fist"])[1]["tip_error"][1:].max() < 0.03
 

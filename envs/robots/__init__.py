@@ -3,7 +3,7 @@ dropping in those two files makes it available here and in every task (``robot=<
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 from envs.robots.robot import CONFIGS, FINGER_NAMES, Robot, RobotConfig
@@ -23,7 +23,7 @@ def robot_config(name: str) -> RobotConfig:
     return RobotConfig.from_yaml(path)
 
 
-@lru_cache(maxsize=None)
+@cache
 def load_robot(name: str) -> Robot:
     """The robot ``name`` (cached: a Robot is immutable once loaded)."""
     return Robot(robot_config(name))

@@ -22,12 +22,24 @@ from recorder.hand.skeleton import FINGER_SEGMENTS, FINGERS, SEGMENTS
 OUT = Path(__file__).resolve().parents[1] / "assets" / "glovehand" / "glovehand.xml"
 
 # capsule radii (m) per finger: proximal, middle, distal bone (thumb: metacarpal, proximal, distal)
-_RADII = {"thumb": (0.0110, 0.0095, 0.0085), "index": (0.0085, 0.0078, 0.0072),
-          "middle": (0.0088, 0.0080, 0.0074), "ring": (0.0082, 0.0076, 0.0070),
-          "pinky": (0.0074, 0.0068, 0.0064)}
+_RADII = {
+    "thumb": (0.0110, 0.0095, 0.0085),
+    "index": (0.0085, 0.0078, 0.0072),
+    "middle": (0.0088, 0.0080, 0.0074),
+    "ring": (0.0082, 0.0076, 0.0070),
+    "pinky": (0.0074, 0.0068, 0.0064),
+}
 # position servo gain kp (N·m/rad) and force limit (N·m) by joint kind
-_SERVO = {"cmc_flex": (3.0, 2.0), "cmc_abd": (3.0, 2.0), "mcp": (2.0, 1.5), "ip": (1.5, 1.0),
-          "mcp_flex": (3.0, 2.0), "mcp_abd": (2.0, 1.0), "pip": (2.0, 1.2), "dip": (1.0, 0.6)}
+_SERVO = {
+    "cmc_flex": (3.0, 2.0),
+    "cmc_abd": (3.0, 2.0),
+    "mcp": (2.0, 1.5),
+    "ip": (1.5, 1.0),
+    "mcp_flex": (3.0, 2.0),
+    "mcp_abd": (2.0, 1.0),
+    "pip": (2.0, 1.2),
+    "dip": (1.0, 0.6),
+}
 
 
 def _f(v) -> str:
@@ -58,7 +70,8 @@ def build(size: HandSize = HandSize()) -> str:
         # palm: the metacarpus, wrist (x=0) to the knuckle row, 26 mm thick, palmar pad slightly lower
         f'      <geom name="palm" type="box" pos="{_f([0.036 * size.scale, -0.003 * size.scale, 0])}"'
         f' size="{_f(np.array([0.036, 0.038, 0.013]) * size.scale)}"/>',
-        f'      <geom name="palm_heel" type="capsule" fromto="{_f(np.array([0.012, -0.030, -0.004, 0.012, 0.020, -0.004]) * size.scale)}"'
+        f'      <geom name="palm_heel" type="capsule" '
+        f'fromto="{_f(np.array([0.012, -0.030, -0.004, 0.012, 0.020, -0.004]) * size.scale)}"'
         f' size="{0.014 * size.scale:.9g}"/>',
     ]
     for k, finger in enumerate(FINGERS):
@@ -90,14 +103,16 @@ def build(size: HandSize = HandSize()) -> str:
             if depth == 2:
                 lines.append(f'{indent}  <site name="{finger}_tip" pos="{length:.9g} 0 0"/>')
             indent += "  "
-        for depth in reversed(range(3)):
+        for _ in range(3):
             indent = indent[:-2]
             lines.append(f"{indent}</body>")
     lines += ["    </body>", "  </worldbody>", "  <actuator>"]
     for j, (lo, hi) in zip(JOINTS, LIMITS):
         kp, fmax = _SERVO[_joint_kind(j)]
-        lines.append(f'    <position name="{j}" joint="{j}" kp="{kp:g}" ctrlrange="{lo:.9g} {hi:.9g}"'
-                     f' forcerange="{-fmax:g} {fmax:g}"/>')
+        lines.append(
+            f'    <position name="{j}" joint="{j}" kp="{kp:g}" ctrlrange="{lo:.9g} {hi:.9g}"'
+            f' forcerange="{-fmax:g} {fmax:g}"/>'
+        )
     lines += ["  </actuator>", "</mujoco>", ""]
     return "\n".join(lines)
 

@@ -47,7 +47,7 @@ class RobotConfig:
     source: str = ""  # the yaml it came from
 
     @classmethod
-    def from_yaml(cls, path: Path) -> "RobotConfig":
+    def from_yaml(cls, path: Path) -> RobotConfig:
         raw = yaml.safe_load(Path(path).read_text()) or {}
         if not isinstance(raw, dict):
             raise ValueError(f"{path}: expected a mapping at the top level")
@@ -73,9 +73,11 @@ def _expand(text: str) -> str:
     def package_dir(m):
         spec = importlib.util.find_spec(m.group(1))
         if spec is None or not spec.submodule_search_locations:
-            raise ValueError(f"the robot's MJCF needs the Python package {m.group(1)!r}: pip install "
-                             f"{m.group(1).replace('_', '-')}")
+            raise ValueError(
+                f"the robot's MJCF needs the Python package {m.group(1)!r}: pip install {m.group(1).replace('_', '-')}"
+            )
         return str(Path(list(spec.submodule_search_locations)[0]))
+
     return _PLACEHOLDER.sub(package_dir, text)
 
 
@@ -116,8 +118,11 @@ class Robot:
         as_written = mujoco.MjSpec.from_string(self._xml).compile()
         data = mujoco.MjData(as_written)
         mujoco.mj_kinematics(as_written, data)
-        for kind, name in [("body", config.root_body), ("body", config.palm_body),
-                           *(("site", s) for s in config.fingertips.values())]:
+        for kind, name in [
+            ("body", config.root_body),
+            ("body", config.palm_body),
+            *(("site", s) for s in config.fingertips.values()),
+        ]:
             if mujoco.mj_name2id(as_written, getattr(mujoco.mjtObj, f"mjOBJ_{kind.upper()}"), name) < 0:
                 raise ValueError(f"{config.source}: no {kind} named {name!r} in {config.mjcf}")
         root, palm = as_written.body(config.root_body), as_written.body(config.palm_body)

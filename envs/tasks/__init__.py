@@ -8,8 +8,17 @@ from envs.tasks.hand_pose import HandPoseConfig, HandPoseEnv
 
 TASKS = {"pose": HandPoseEnv, "grasp": HandGraspEnv}
 
-__all__ = ["CAMERAS", "TASKS", "HandEnv", "HandGraspConfig", "HandGraspEnv", "HandPoseConfig", "HandPoseEnv",
-           "TaskConfig", "make_task"]
+__all__ = [
+    "CAMERAS",
+    "TASKS",
+    "HandEnv",
+    "HandGraspConfig",
+    "HandGraspEnv",
+    "HandPoseConfig",
+    "HandPoseEnv",
+    "TaskConfig",
+    "make_task",
+]
 
 
 def make_task(name: str, robot: str = "glovehand", **kwargs) -> HandEnv:

@@ -39,14 +39,14 @@ CAMERAS = ("front", "top", "side")
 @dataclass
 class TaskConfig:
     control_hz: float = 30.0
-    max_physics_dt: float = 0.002     # the physics step is the control period split into equal steps <= this
+    max_physics_dt: float = 0.002  # the physics step is the control period split into equal steps <= this
     episode_s: float = 6.0
-    cameras: tuple = ()               # any of CAMERAS; empty: state only (fastest)
-    image_size: tuple = (128, 128)    # (height, width)
-    base_rotation: bool = True        # the action carries the palm rotation (3)
+    cameras: tuple = ()  # any of CAMERAS; empty: state only (fastest)
+    image_size: tuple = (128, 128)  # (height, width)
+    base_rotation: bool = True  # the action carries the palm rotation (3)
     max_base_angle_deg: float = 75.0
     state_velocities: bool = True
-    weld_timeconst: float = 0.01      # s; how stiffly the hand base follows its target
+    weld_timeconst: float = 0.01  # s; how stiffly the hand base follows its target
 
     @classmethod
     def load(cls, name: str, **overrides):
@@ -122,15 +122,19 @@ class HandEnv(gym.Env):
         if cfg.base_rotation:
             lo, hi = np.concatenate((lo, [-amax] * 3)), np.concatenate((hi, [amax] * 3))
         self.action_space = gym.spaces.Box(lo.astype(np.float32), hi.astype(np.float32), dtype=np.float32)
-        self.action_names = tuple(self.robot.actuator_names) + (("base.rx", "base.ry", "base.rz")
-                                                                 if cfg.base_rotation else ())
-        self.state_names = (tuple(f"{n}.pos" for n in self.joint_names)
-                            + (tuple(f"{n}.vel" for n in self.joint_names) if cfg.state_velocities else ())
-                            + ("palm.x", "palm.y", "palm.z", "palm.qw", "palm.qx", "palm.qy", "palm.qz"))
+        self.action_names = tuple(self.robot.actuator_names) + (
+            ("base.rx", "base.ry", "base.rz") if cfg.base_rotation else ()
+        )
+        self.state_names = (
+            tuple(f"{n}.pos" for n in self.joint_names)
+            + (tuple(f"{n}.vel" for n in self.joint_names) if cfg.state_velocities else ())
+            + ("palm.x", "palm.y", "palm.z", "palm.qw", "palm.qx", "palm.qy", "palm.qz")
+        )
         spaces = {
             "observation.state": gym.spaces.Box(-np.inf, np.inf, (len(self.state_names),), np.float32),
             "observation.environment_state": gym.spaces.Box(
-                -np.inf, np.inf, (len(self.environment_state_names),), np.float32),
+                -np.inf, np.inf, (len(self.environment_state_names),), np.float32
+            ),
         }
         for cam in cfg.cameras:
             spaces[f"observation.images.{cam}"] = gym.spaces.Box(0, 255, (h, w, 3), np.uint8)
@@ -144,24 +148,44 @@ class HandEnv(gym.Env):
 
     # ------------------------------------------------------------ scene
     def _build_scene(self, spec: mujoco.MjSpec) -> None:
-        spec.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
-                         rgb1=[0.32, 0.36, 0.40], rgb2=[0.26, 0.30, 0.34], width=256, height=256)
+        spec.add_texture(
+            name="grid",
+            type=mujoco.mjtTexture.mjTEXTURE_2D,
+            builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
+            rgb1=[0.32, 0.36, 0.40],
+            rgb2=[0.26, 0.30, 0.34],
+            width=256,
+            height=256,
+        )
         spec.add_material(name="grid", textures=["", "grid"], texrepeat=[8, 8], reflectance=0.0)
         wb = spec.worldbody
-        wb.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[1.0, 1.0, 0.05], material="grid",
-                    friction=[0.8, 0.005, 0.0001], contype=1, conaffinity=1)
-        wb.add_light(name="key", pos=[0.3, -0.4, 1.2], dir=[-0.25, 0.35, -1.0], diffuse=[0.7, 0.7, 0.7],
-                     castshadow=False)
-        wb.add_light(name="fill", pos=[-0.4, 0.4, 1.0], dir=[0.4, -0.4, -1.0], diffuse=[0.35, 0.35, 0.35],
-                     castshadow=False)
+        wb.add_geom(
+            name="floor",
+            type=mujoco.mjtGeom.mjGEOM_PLANE,
+            size=[1.0, 1.0, 0.05],
+            material="grid",
+            friction=[0.8, 0.005, 0.0001],
+            contype=1,
+            conaffinity=1,
+        )
+        wb.add_light(
+            name="key", pos=[0.3, -0.4, 1.2], dir=[-0.25, 0.35, -1.0], diffuse=[0.7, 0.7, 0.7], castshadow=False
+        )
+        wb.add_light(
+            name="fill", pos=[-0.4, 0.4, 1.0], dir=[0.4, -0.4, -1.0], diffuse=[0.35, 0.35, 0.35], castshadow=False
+        )
         spec.visual.headlight.ambient = [0.35, 0.35, 0.35]
         wb.add_body(name="base_target", mocap=True)
-        spec.add_equality(type=mujoco.mjtEq.mjEQ_WELD, name1="base_target", name2=self.robot.config.root_body,
-                          objtype=mujoco.mjtObj.mjOBJ_BODY, solref=[self.config.weld_timeconst, 1.0],
-                          data=[0, 0, 0, *self.robot.root_in_palm[0], *self.robot.root_in_palm[1], 1.0, 0.0])
+        spec.add_equality(
+            type=mujoco.mjtEq.mjEQ_WELD,
+            name1="base_target",
+            name2=self.robot.config.root_body,
+            objtype=mujoco.mjtObj.mjOBJ_BODY,
+            solref=[self.config.weld_timeconst, 1.0],
+            data=[0, 0, 0, *self.robot.root_in_palm[0], *self.robot.root_in_palm[1], 1.0, 0.0],
+        )
         ws = np.array(self.workspace)
-        for name, offset in (("front", (0.42, -0.30, 0.22)), ("top", (0.02, 0.0, 0.55)),
-                             ("side", (0.05, -0.50, 0.10))):
+        for name, offset in (("front", (0.42, -0.30, 0.22)), ("top", (0.02, 0.0, 0.55)), ("side", (0.05, -0.50, 0.10))):
             pos = ws + offset
             wb.add_camera(name=name, pos=pos, xyaxes=_look_at(pos, ws), fovy=45.0)
 
@@ -170,21 +194,29 @@ class HandEnv(gym.Env):
         robot_root = m.body(self.robot.config.root_body).id
         self._base_qpos = m.jnt_qposadr[m.joint("base").id]
         self._base_dof = m.jnt_dofadr[m.joint("base").id]
-        joints = [j for j in range(m.njnt)
-                  if m.body_rootid[m.jnt_bodyid[j]] == robot_root and m.jnt_type[j] != mujoco.mjtJoint.mjJNT_FREE]
+        joints = [
+            j
+            for j in range(m.njnt)
+            if m.body_rootid[m.jnt_bodyid[j]] == robot_root and m.jnt_type[j] != mujoco.mjtJoint.mjJNT_FREE
+        ]
         self.joint_names = tuple(m.joint(j).name for j in joints)
         self._jq = m.jnt_qposadr[joints]
         self._jv = m.jnt_dofadr[joints]
         self._mocap = m.body_mocapid[m.body("base_target").id]
-        self._palm_in_root = (-quat.rotate(quat.conj(self.robot.root_in_palm[1]), self.robot.root_in_palm[0]),
-                              quat.conj(self.robot.root_in_palm[1]))
+        self._palm_in_root = (
+            -quat.rotate(quat.conj(self.robot.root_in_palm[1]), self.robot.root_in_palm[0]),
+            quat.conj(self.robot.root_in_palm[1]),
+        )
         self._act_qpos = m.jnt_qposadr[m.actuator_trnid[:, 0]]
         self._robot_geoms = np.flatnonzero(m.body_rootid[m.geom_bodyid] == robot_root)
 
     # ------------------------------------------------------------ the base
     def palm_pose(self) -> tuple[np.ndarray, np.ndarray]:
         """The glove palm frame's world pose (pos, quat) as the hand base is now."""
-        p, q = self.data.qpos[self._base_qpos:self._base_qpos + 3], self.data.qpos[self._base_qpos + 3:self._base_qpos + 7]
+        p, q = (
+            self.data.qpos[self._base_qpos : self._base_qpos + 3],
+            self.data.qpos[self._base_qpos + 3 : self._base_qpos + 7],
+        )
         pr, qr = self._palm_in_root
         return p + quat.rotate(q, pr), quat.mul(q, qr)
 
@@ -196,9 +228,9 @@ class HandEnv(gym.Env):
         """Put the hand (and its target) at palm pose (pos, q), at rest."""
         self._set_base_target(pos, q)
         rp, rq = self.robot.root_in_palm
-        self.data.qpos[self._base_qpos:self._base_qpos + 3] = pos + quat.rotate(q, rp)
-        self.data.qpos[self._base_qpos + 3:self._base_qpos + 7] = quat.mul(q, rq)
-        self.data.qvel[self._base_dof:self._base_dof + 6] = 0.0
+        self.data.qpos[self._base_qpos : self._base_qpos + 3] = pos + quat.rotate(q, rp)
+        self.data.qpos[self._base_qpos + 3 : self._base_qpos + 7] = quat.mul(q, rq)
+        self.data.qvel[self._base_dof : self._base_dof + 6] = 0.0
 
     # ------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -220,14 +252,14 @@ class HandEnv(gym.Env):
         if a.shape != self.action_space.shape:
             raise ValueError(f"expected an action of shape {self.action_space.shape}, got {a.shape}")
         a = np.clip(np.nan_to_num(a), self.action_space.low, self.action_space.high)
-        self.data.ctrl[:] = a[:self._nu]
+        self.data.ctrl[:] = a[: self._nu]
         if self.config.base_rotation:
-            rv = a[self._nu:]
+            rv = a[self._nu :]
             angle = np.linalg.norm(rv)
             amax = np.radians(self.config.max_base_angle_deg)
             if angle > amax:
                 rv = rv * (amax / angle)
-                a[self._nu:] = rv
+                a[self._nu :] = rv
             self._base_rot = quat.from_rotvec(rv)
         self.t = (self.steps + 1) / self.config.control_hz
         pos, q = self._base_target(self.t)
@@ -249,8 +281,10 @@ class HandEnv(gym.Env):
         if self.config.state_velocities:
             parts.append(d.qvel[self._jv])
         parts.extend(self.palm_pose())
-        obs = {"observation.state": np.concatenate(parts).astype(np.float32),
-               "observation.environment_state": self._environment_state().astype(np.float32)}
+        obs = {
+            "observation.state": np.concatenate(parts).astype(np.float32),
+            "observation.environment_state": self._environment_state().astype(np.float32),
+        }
         for cam in self.config.cameras:
             obs[f"observation.images.{cam}"] = self._render(cam)
         return obs
@@ -281,7 +315,7 @@ class HandEnv(gym.Env):
         """How many distinct hand bodies touch ``geom``."""
         d, m = self.data, self.model
         bodies = set()
-        for c in d.contact[:d.ncon]:
+        for c in d.contact[: d.ncon]:
             for a, b in ((c.geom1, c.geom2), (c.geom2, c.geom1)):
                 if a == geom and b in self._robot_geoms:
                     bodies.add(m.geom_bodyid[b])

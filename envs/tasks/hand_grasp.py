@@ -23,8 +23,11 @@ from envs.tasks.base import HandEnv, TaskConfig
 from recorder import quat
 
 SHAPES = ("box", "cylinder", "sphere")
-_GEOM = {"box": mujoco.mjtGeom.mjGEOM_BOX, "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
-         "sphere": mujoco.mjtGeom.mjGEOM_SPHERE}
+_GEOM = {
+    "box": mujoco.mjtGeom.mjGEOM_BOX,
+    "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
+    "sphere": mujoco.mjtGeom.mjGEOM_SPHERE,
+}
 
 
 def _min_jerk(s):
@@ -42,13 +45,13 @@ class HandGraspConfig(TaskConfig):
     sphere_radius: tuple = (0.030, 0.038)
     mass_kg: tuple = (0.05, 0.15)
     friction: tuple = (0.8, 1.2)
-    placement_m: float = 0.04          # object centre uniform in ±placement_m (x and y)
-    misalignment_m: float = 0.008      # base xy error relative to the object, uniform in ±
-    hover_m: float = 0.08              # start this high above the grasp pose
+    placement_m: float = 0.04  # object centre uniform in ±placement_m (x and y)
+    misalignment_m: float = 0.008  # base xy error relative to the object, uniform in ±
+    hover_m: float = 0.08  # start this high above the grasp pose
     lift_m: float = 0.12
     tilt_deg: float = 25.0
     tilt_prob: float = 0.5
-    descend_s: float = 1.0             # phase durations
+    descend_s: float = 1.0  # phase durations
     close_s: float = 1.3
     lift_s: float = 1.2
     tilt_s: float = 1.0
@@ -58,9 +61,19 @@ class HandGraspEnv(HandEnv):
     config_class = HandGraspConfig
     task_name = "grasp"
     workspace = (0.0, 0.0, 0.10)
-    environment_state_names = ("object.x", "object.y", "object.z", "object.qw", "object.qx", "object.qy",
-                               "object.qz", "object.hx", "object.hy", "object.hz",
-                               *(f"object.is_{s}" for s in SHAPES))
+    environment_state_names = (
+        "object.x",
+        "object.y",
+        "object.z",
+        "object.qw",
+        "object.qx",
+        "object.qy",
+        "object.qz",
+        "object.hx",
+        "object.hy",
+        "object.hz",
+        *(f"object.is_{s}" for s in SHAPES),
+    )
 
     def __init__(self, robot: str = "glovehand", render_mode=None, config=None, **overrides):
         super().__init__(robot, render_mode, config, **overrides)
@@ -76,15 +89,29 @@ class HandGraspEnv(HandEnv):
         for k, shape in enumerate(SHAPES):
             body = spec.worldbody.add_body(name=f"object_{shape}", pos=[0.3 + 0.1 * k, 0.6, 0.05])
             body.add_freejoint(name=f"object_{shape}")
-            body.add_geom(name=f"object_{shape}", type=_GEOM[shape], size=[0.03, 0.03, 0.03], rgba=colours[shape],
-                          condim=4, friction=[1.0, 0.01, 0.0005], mass=0.1, solref=[0.004, 1.0])
+            body.add_geom(
+                name=f"object_{shape}",
+                type=_GEOM[shape],
+                size=[0.03, 0.03, 0.03],
+                rgba=colours[shape],
+                condim=4,
+                friction=[1.0, 0.01, 0.0005],
+                mass=0.1,
+                solref=[0.004, 1.0],
+            )
 
     def _init_indices(self) -> None:
         super()._init_indices()
         m = self.model
-        self._obj = {s: (m.body(f"object_{s}").id, m.geom(f"object_{s}").id,
-                         m.jnt_qposadr[m.joint(f"object_{s}").id], m.jnt_dofadr[m.joint(f"object_{s}").id])
-                     for s in SHAPES}
+        self._obj = {
+            s: (
+                m.body(f"object_{s}").id,
+                m.geom(f"object_{s}").id,
+                m.jnt_qposadr[m.joint(f"object_{s}").id],
+                m.jnt_dofadr[m.joint(f"object_{s}").id],
+            )
+            for s in SHAPES
+        }
         self._rgba = {s: m.geom_rgba[self._obj[s][1]].copy() for s in SHAPES}
 
     # ------------------------------------------------------------ episode
@@ -108,7 +135,7 @@ class HandGraspEnv(HandEnv):
             m.geom_contype[geom] = m.geom_conaffinity[geom] = int(active)
             m.geom_rgba[geom] = self._rgba[s] * [1, 1, 1, int(active)]
             m.body_gravcomp[body] = 0.0 if active else 1.0
-            d.qpos[qadr:qadr + 7] = [1.5 + 0.2 * k, 1.5, 0.5, 1, 0, 0, 0]
+            d.qpos[qadr : qadr + 7] = [1.5 + 0.2 * k, 1.5, 0.5, 1, 0, 0, 0]
         body, geom, qadr, dadr = self._obj[shape]
         size = {"box": half, "cylinder": [half[0], half[2], 0], "sphere": [half[0], 0, 0]}[shape]
         m.geom_size[geom] = size
@@ -129,7 +156,7 @@ class HandGraspEnv(HandEnv):
         xy = rng.uniform(-cfg.placement_m, cfg.placement_m, 2)
         yaw = rng.uniform(-np.pi, np.pi) if shape != "sphere" else 0.0
         self.object_start = np.array([xy[0], xy[1], half[2]])
-        d.qpos[qadr:qadr + 7] = [*self.object_start, np.cos(yaw / 2), 0, 0, np.sin(yaw / 2)]
+        d.qpos[qadr : qadr + 7] = [*self.object_start, np.cos(yaw / 2), 0, 0, np.sin(yaw / 2)]
         self._object = (body, geom, qadr)
 
         # the base script: palm point (robot grasp_point) just above the object's top
@@ -142,13 +169,20 @@ class HandGraspEnv(HandEnv):
         self._tilt = tilt
         t = 0.0
         self.schedule = {}
-        for phase, dur in (("descend", cfg.descend_s), ("close", cfg.close_s), ("lift", cfg.lift_s),
-                           ("tilt", cfg.tilt_s if tilt else 0.0), ("hold", 0.0)):
+        for phase, dur in (
+            ("descend", cfg.descend_s),
+            ("close", cfg.close_s),
+            ("lift", cfg.lift_s),
+            ("tilt", cfg.tilt_s if tilt else 0.0),
+            ("hold", 0.0),
+        ):
             self.schedule[phase] = t
             t += dur
         self.schedule["end"] = cfg.episode_s
         if self.schedule["hold"] >= cfg.episode_s:
-            raise ValueError(f"episode_s {cfg.episode_s} too short for the grasp script ({self.schedule['hold']:.1f} s)")
+            raise ValueError(
+                f"episode_s {cfg.episode_s} too short for the grasp script ({self.schedule['hold']:.1f} s)"
+            )
 
     def _base_target(self, t: float):
         s = self.schedule
@@ -163,7 +197,7 @@ class HandGraspEnv(HandEnv):
 
     def object_pose(self) -> np.ndarray:
         qadr = self._object[2]
-        return self.data.qpos[qadr:qadr + 7].copy()
+        return self.data.qpos[qadr : qadr + 7].copy()
 
     def _environment_state(self) -> np.ndarray:
         onehot = np.array([s == self.object_shape for s in SHAPES], float)

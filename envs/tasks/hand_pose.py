@@ -27,7 +27,7 @@ class HandPoseConfig(TaskConfig):
     gestures: tuple = ("fist", "pinch", "point", "two_fingers", "spiderman")
     tolerance_deg: float = 8.0
     hold_s: float = 0.5
-    start_noise_deg: float = 3.0      # joint noise of the starting (open) pose
+    start_noise_deg: float = 3.0  # joint noise of the starting (open) pose
     terminate_on_success: bool = True
 
 
@@ -60,8 +60,8 @@ class HandPoseEnv(HandEnv):
             d.mocap_pos[self._mocap] = self.workspace
             d.mocap_quat[self._mocap] = quat.IDENTITY
             rp, rq = self.robot.root_in_palm
-            d.qpos[self._base_qpos:self._base_qpos + 3] = np.array(self.workspace) + rp
-            d.qpos[self._base_qpos + 3:self._base_qpos + 7] = rq
+            d.qpos[self._base_qpos : self._base_qpos + 3] = np.array(self.workspace) + rp
+            d.qpos[self._base_qpos + 3 : self._base_qpos + 7] = rq
             d.ctrl[:] = self._map.joint_map(GESTURES[gesture])
             mujoco.mj_step(self.model, d, nstep=int(1.5 / self.model.opt.timestep))
             self._goals[gesture] = d.actuator_length.copy()
@@ -79,8 +79,9 @@ class HandPoseEnv(HandEnv):
         start = GESTURES["open"] + rng.normal(0.0, np.radians(self.config.start_noise_deg), len(LIMITS))
         start = interpolate_dip(np.clip(start, LIMITS[:, 0], LIMITS[:, 1]))
         q = self._map.qpos(self._map.joint_map(start))
-        self.data.qpos[self._jq] = q[self._map.model.jnt_qposadr[[self._map.model.joint(n).id
-                                                                    for n in self.joint_names]]]
+        self.data.qpos[self._jq] = q[
+            self._map.model.jnt_qposadr[[self._map.model.joint(n).id for n in self.joint_names]]
+        ]
         self._held = 0
 
     def _base_target(self, t: float):

@@ -25,23 +25,25 @@ POLICY_TYPE = "gloverec_bc"
 @dataclass
 class BCConfig(PreTrainedConfig):
     n_obs_steps: int = 1
-    chunk_size: int = 10                 # actions predicted per observation (steps of the dataset's fps)
-    n_action_steps: int = 1              # executed per prediction (1 with temporal ensembling)
-    temporal_ensemble_coeff: float | None = 0.1   # w_i = exp(-coeff * i), i = 0 the oldest prediction
+    chunk_size: int = 10  # actions predicted per observation (steps of the dataset's fps)
+    n_action_steps: int = 1  # executed per prediction (1 with temporal ensembling)
+    temporal_ensemble_coeff: float | None = 0.1  # w_i = exp(-coeff * i), i = 0 the oldest prediction
 
-    normalization_mapping: dict[str, NormalizationMode] = field(default_factory=lambda: {
-        "VISUAL": NormalizationMode.MEAN_STD,
-        "STATE": NormalizationMode.MEAN_STD,
-        "ENV": NormalizationMode.MEAN_STD,
-        "ACTION": NormalizationMode.MEAN_STD,
-    })
+    normalization_mapping: dict[str, NormalizationMode] = field(
+        default_factory=lambda: {
+            "VISUAL": NormalizationMode.MEAN_STD,
+            "STATE": NormalizationMode.MEAN_STD,
+            "ENV": NormalizationMode.MEAN_STD,
+            "ACTION": NormalizationMode.MEAN_STD,
+        }
+    )
 
     # the network: an MLP over the normalised state vectors and the image embeddings
     hidden_dim: int = 512
     n_layers: int = 3
     dropout: float = 0.0
     use_images: bool = True
-    image_channels: tuple[int, ...] = (32, 64, 64)   # the per-camera CNN (stride-2 convolutions, then global pooling)
+    image_channels: tuple[int, ...] = (32, 64, 64)  # the per-camera CNN (stride-2 convolutions, then global pooling)
     image_embedding_dim: int = 64
 
     # training preset (lerobot-train uses it too)
@@ -49,7 +51,7 @@ class BCConfig(PreTrainedConfig):
     optimizer_weight_decay: float = 1e-4
     optimizer_grad_clip_norm: float = 10.0
     scheduler_warmup_steps: int = 200
-    scheduler_decay_steps: int = 20_000    # auto-scaled down to shorter runs by lerobot's scheduler
+    scheduler_decay_steps: int = 20_000  # auto-scaled down to shorter runs by lerobot's scheduler
     scheduler_decay_lr: float = 1e-5
 
     def __post_init__(self):
@@ -66,13 +68,17 @@ class BCConfig(PreTrainedConfig):
             raise ValueError("hidden_dim and n_layers must be positive")
 
     def get_optimizer_preset(self) -> AdamWConfig:
-        return AdamWConfig(lr=self.optimizer_lr, weight_decay=self.optimizer_weight_decay,
-                           grad_clip_norm=self.optimizer_grad_clip_norm)
+        return AdamWConfig(
+            lr=self.optimizer_lr, weight_decay=self.optimizer_weight_decay, grad_clip_norm=self.optimizer_grad_clip_norm
+        )
 
     def get_scheduler_preset(self) -> CosineDecayWithWarmupSchedulerConfig:
         return CosineDecayWithWarmupSchedulerConfig(
-            num_warmup_steps=self.scheduler_warmup_steps, num_decay_steps=self.scheduler_decay_steps,
-            peak_lr=self.optimizer_lr, decay_lr=self.scheduler_decay_lr)
+            num_warmup_steps=self.scheduler_warmup_steps,
+            num_decay_steps=self.scheduler_decay_steps,
+            peak_lr=self.optimizer_lr,
+            decay_lr=self.scheduler_decay_lr,
+        )
 
     def validate_features(self) -> None:
         """Keep the inputs the policy reads (state, environment state, images) and check there is one."""
@@ -82,8 +88,10 @@ class BCConfig(PreTrainedConfig):
                 used[key] = ft
         self.input_features = used
         if not used:
-            raise ValueError(f"the {POLICY_TYPE} policy needs {OBS_STATE}, {OBS_ENV_STATE} or images among its "
-                             "inputs; none was given")
+            raise ValueError(
+                f"the {POLICY_TYPE} policy needs {OBS_STATE}, {OBS_ENV_STATE} or images among its "
+                "inputs; none was given"
+            )
         if not self.output_features or ACTION not in self.output_features:
             raise ValueError(f"the {POLICY_TYPE} policy needs an '{ACTION}' output feature")
 

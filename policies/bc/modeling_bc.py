@@ -14,11 +14,10 @@ from collections import deque
 
 import torch
 import torch.nn.functional as F  # noqa: N812
-from torch import Tensor, nn
-
 from lerobot.policies.act.modeling_act import ACTTemporalEnsembler
 from lerobot.policies.pretrained import PreTrainedPolicy
 from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
+from torch import Tensor, nn
 
 from policies.bc.configuration_bc import POLICY_TYPE, BCConfig
 
@@ -33,8 +32,9 @@ class ImageEncoder(nn.Module):
             k = 5 if i == 0 else 3
             layers += [nn.Conv2d(c_in, c, k, stride=2, padding=k // 2), nn.GroupNorm(min(8, c), c), nn.GELU()]
             c_in = c
-        self.net = nn.Sequential(*layers, nn.AdaptiveAvgPool2d(4), nn.Flatten(), nn.Linear(16 * c_in, out_dim),
-                                 nn.GELU())
+        self.net = nn.Sequential(
+            *layers, nn.AdaptiveAvgPool2d(4), nn.Flatten(), nn.Linear(16 * c_in, out_dim), nn.GELU()
+        )
 
     def forward(self, image: Tensor) -> Tensor:
         return self.net(image)
@@ -51,10 +51,12 @@ class BCPolicy(PreTrainedPolicy):
         self.vector_keys = [k for k in (OBS_STATE, OBS_ENV_STATE) if k in config.input_features]
         self.image_keys = sorted(config.image_features)
         self.action_dim = config.action_feature.shape[0]
-        self.encoders = nn.ModuleList(ImageEncoder(tuple(config.image_channels), config.image_embedding_dim)
-                                      for _ in self.image_keys)
-        width = (sum(config.input_features[k].shape[0] for k in self.vector_keys)
-                 + config.image_embedding_dim * len(self.image_keys))
+        self.encoders = nn.ModuleList(
+            ImageEncoder(tuple(config.image_channels), config.image_embedding_dim) for _ in self.image_keys
+        )
+        width = sum(config.input_features[k].shape[0] for k in self.vector_keys) + config.image_embedding_dim * len(
+            self.image_keys
+        )
         layers = []
         for _ in range(config.n_layers):
             layers += [nn.Linear(width, config.hidden_dim), nn.LayerNorm(config.hidden_dim), nn.GELU()]
@@ -63,8 +65,11 @@ class BCPolicy(PreTrainedPolicy):
             width = config.hidden_dim
         self.mlp = nn.Sequential(*layers)
         self.head = nn.Linear(width, config.chunk_size * self.action_dim)
-        self.temporal_ensembler = (ACTTemporalEnsembler(config.temporal_ensemble_coeff, config.chunk_size)
-                                   if config.temporal_ensemble_coeff is not None else None)
+        self.temporal_ensembler = (
+            ACTTemporalEnsembler(config.temporal_ensemble_coeff, config.chunk_size)
+            if config.temporal_ensemble_coeff is not None
+            else None
+        )
         self.reset()
 
     def get_optim_params(self):
@@ -101,7 +106,7 @@ class BCPolicy(PreTrainedPolicy):
     def forward(self, batch: dict[str, Tensor]) -> tuple[Tensor, dict]:
         """L1 loss between the predicted and the recorded (normalised) action chunks, padding masked out."""
         target = batch[ACTION]
-        if target.dim() == 2:          # a dataset loaded without action chunks: a chunk of one
+        if target.dim() == 2:  # a dataset loaded without action chunks: a chunk of one
             target = target.unsqueeze(1)
         pred = self._chunk(batch)[:, : target.shape[1]]
         err = F.l1_loss(pred, target, reduction="none")

@@ -10,7 +10,6 @@ from __future__ import annotations
 from typing import Any
 
 import torch
-
 from lerobot.processor import (
     AddBatchDimensionProcessorStep,
     DeviceProcessorStep,
@@ -27,26 +26,33 @@ from policies.bc.configuration_bc import BCConfig
 
 
 def make_gloverec_bc_pre_post_processors(
-    config: BCConfig, dataset_stats: dict[str, dict[str, torch.Tensor]] | None = None,
-) -> tuple[PolicyProcessorPipeline[dict[str, Any], dict[str, Any]],
-           PolicyProcessorPipeline[PolicyAction, PolicyAction]]:
+    config: BCConfig,
+    dataset_stats: dict[str, dict[str, torch.Tensor]] | None = None,
+) -> tuple[
+    PolicyProcessorPipeline[dict[str, Any], dict[str, Any]], PolicyProcessorPipeline[PolicyAction, PolicyAction]
+]:
     """The name LeRobot's factory looks up for policy type ``gloverec_bc`` (make_<type>_pre_post_processors)."""
     features = {**config.input_features, **config.output_features}
     pre = [
         RenameObservationsProcessorStep(rename_map={}),
         AddBatchDimensionProcessorStep(),
         DeviceProcessorStep(device=config.device),
-        NormalizerProcessorStep(features=features, norm_map=config.normalization_mapping, stats=dataset_stats,
-                                device=config.device),
+        NormalizerProcessorStep(
+            features=features, norm_map=config.normalization_mapping, stats=dataset_stats, device=config.device
+        ),
     ]
     post = [
-        UnnormalizerProcessorStep(features=config.output_features, norm_map=config.normalization_mapping,
-                                  stats=dataset_stats),
+        UnnormalizerProcessorStep(
+            features=config.output_features, norm_map=config.normalization_mapping, stats=dataset_stats
+        ),
         DeviceProcessorStep(device="cpu"),
     ]
     return (
         PolicyProcessorPipeline[dict[str, Any], dict[str, Any]](steps=pre, name=POLICY_PREPROCESSOR_DEFAULT_NAME),
         PolicyProcessorPipeline[PolicyAction, PolicyAction](
-            steps=post, name=POLICY_POSTPROCESSOR_DEFAULT_NAME,
-            to_transition=policy_action_to_transition, to_output=transition_to_policy_action),
+            steps=post,
+            name=POLICY_POSTPROCESSOR_DEFAULT_NAME,
+            to_transition=policy_action_to_transition,
+            to_output=transition_to_policy_action,
+        ),
     )

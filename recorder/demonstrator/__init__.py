@@ -13,8 +13,15 @@ from recorder.demonstrator.pose import PoseDemoConfig, PoseDemonstrator
 
 DEMONSTRATORS = {"pose": PoseDemonstrator, "grasp": GraspDemonstrator}
 
-__all__ = ["DEMONSTRATORS", "DemoMotion", "GraspDemoConfig", "GraspDemonstrator", "PoseDemoConfig",
-           "PoseDemonstrator", "make_demonstrator"]
+__all__ = [
+    "DEMONSTRATORS",
+    "DemoMotion",
+    "GraspDemoConfig",
+    "GraspDemonstrator",
+    "PoseDemoConfig",
+    "PoseDemonstrator",
+    "make_demonstrator",
+]
 
 
 def make_demonstrator(task: str):

@@ -29,21 +29,28 @@ def _fingers(flex: float, pip: float, spread: float = 0.0) -> dict:
     return out
 
 
-PREGRASP = _pose(np.zeros(len(JOINTS)), thumb_cmc_flex=5, thumb_cmc_abd=55, thumb_mcp=5, thumb_ip=5,
-                 **_fingers(10, 10, 6))
+PREGRASP = _pose(
+    np.zeros(len(JOINTS)), thumb_cmc_flex=5, thumb_cmc_abd=55, thumb_mcp=5, thumb_ip=5, **_fingers(10, 10, 6)
+)
 
 
 def power_grasp(size_m: float) -> np.ndarray:
     """Power grasp target for an object about ``size_m`` across: the smaller, the tighter."""
     k = float(np.clip((0.075 - size_m) / 0.03, 0.0, 1.0))  # 0: large (7.5 cm), 1: small (4.5 cm)
-    return _pose(np.zeros(len(JOINTS)), thumb_cmc_flex=20, thumb_cmc_abd=60, thumb_mcp=35, thumb_ip=35,
-                 **_fingers(70 + 10 * k, 90 + 10 * k, 0))
+    return _pose(
+        np.zeros(len(JOINTS)),
+        thumb_cmc_flex=20,
+        thumb_cmc_abd=60,
+        thumb_mcp=35,
+        thumb_ip=35,
+        **_fingers(70 + 10 * k, 90 + 10 * k, 0),
+    )
 
 
-@dataclass
+@dataclass(frozen=True)
 class GraspDemoConfig:
-    preshape_s: tuple = (0.5, 0.9)    # opening wide, during the descent
-    reaction_s: tuple = (0.1, 0.3)    # after the base has stopped
+    preshape_s: tuple = (0.5, 0.9)  # opening wide, during the descent
+    reaction_s: tuple = (0.1, 0.3)  # after the base has stopped
     close_s: tuple = (0.45, 0.8)
     pose_noise_deg: float = 3.0
     rate_hz: float = 200.0

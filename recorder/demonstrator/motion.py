@@ -15,9 +15,17 @@ from recorder.hand.kinematics import LIMITS, N_JOINTS, clip, interpolate_dip
 
 
 class DemoMotion:
-    def __init__(self, times, poses, rng: np.random.Generator, rate_hz: float = 200.0,
-                 wander_deg: float = 0.75, tremor_deg: float = 0.05, palm_deg: float = 3.0,
-                 palm_pos=(0.0, 0.0, 0.0)):
+    def __init__(
+        self,
+        times,
+        poses,
+        rng: np.random.Generator,
+        rate_hz: float = 200.0,
+        wander_deg: float = 0.75,
+        tremor_deg: float = 0.05,
+        palm_deg: float = 3.0,
+        palm_pos=(0.0, 0.0, 0.0),
+    ):
         """times (k,) ascending s; poses (k, 20) rad: the hand is at poses[i] at times[i], holds before the
         first and after the last, and moves with minimum jerk in between (equal poses: a hold)."""
         self.times = np.asarray(times, float)

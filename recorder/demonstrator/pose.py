@@ -11,11 +11,11 @@ from recorder.demonstrator.motion import DemoMotion
 from recorder.emulator.motion import GESTURES
 
 
-@dataclass
+@dataclass(frozen=True)
 class PoseDemoConfig:
     reaction_s: tuple = (0.15, 0.45)
     move_s: tuple = (0.6, 1.1)
-    pose_noise_deg: float = 1.5       # per joint, clipped at 2 sigma
+    pose_noise_deg: float = 1.5  # per joint, clipped at 2 sigma
     rate_hz: float = 200.0
 
 

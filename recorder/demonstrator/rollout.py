@@ -39,8 +39,16 @@ class _GloveReader:
         return self.angles[i], self.palm[i]
 
 
-def run_episode(env, retargeter, seed: int, via: str = "direct", latency_s: float = 0.02,
-                noise_deg: float = 0.5, demonstrator=None, on_step=None) -> dict:
+def run_episode(
+    env,
+    retargeter,
+    seed: int,
+    via: str = "direct",
+    latency_s: float = 0.02,
+    noise_deg: float = 0.5,
+    demonstrator=None,
+    on_step=None,
+) -> dict:
     """One demonstration on ``env`` (reset with ``seed``); returns success, steps and retarget error."""
     obs, info = env.reset(seed=seed)
     u = env.unwrapped
@@ -50,6 +58,7 @@ def run_episode(env, retargeter, seed: int, via: str = "direct", latency_s: floa
     if via == "glove":
         read = _GloveReader(motion, seed, latency_s, noise_deg)
     elif via == "direct":
+
         def read(t):
             b = motion.at([t])
             return b.angles[0], b.palm_quat[0]
@@ -67,13 +76,18 @@ def run_episode(env, retargeter, seed: int, via: str = "direct", latency_s: floa
             on_step(obs, action, info)
         if terminated or truncated:
             break
-    return {"seed": seed, "success": bool(info["is_success"]), "steps": steps,
-            "tip_error_mm": round(1000 * float(np.mean(errors)), 2),
-            **{k: info[k] for k in ("goal", "object") if k in info}}
+    return {
+        "seed": seed,
+        "success": bool(info["is_success"]),
+        "steps": steps,
+        "tip_error_mm": round(1000 * float(np.mean(errors)), 2),
+        **{k: info[k] for k in ("goal", "object") if k in info},
+    }
 
 
-def success_rate(task: str, robot: str, episodes: int, via: str = "direct", mode: str = "joint",
-                 seed0: int = 0, **env_kwargs) -> dict:
+def success_rate(
+    task: str, robot: str, episodes: int, via: str = "direct", mode: str = "joint", seed0: int = 0, **env_kwargs
+) -> dict:
     import envs  # noqa: F401  (registers the environments)
     from recorder.retarget import Retargeter
 
@@ -83,10 +97,18 @@ def success_rate(task: str, robot: str, episodes: int, via: str = "direct", mode
     runs = [run_episode(env, r, seed0 + k, via) for k in range(episodes)]
     env.close()
     ok = sum(r["success"] for r in runs)
-    return {"task": task, "robot": robot, "via": via, "mode": mode, "episodes": episodes,
-            "success_rate": round(ok / episodes, 3), "successes": ok,
-            "mean_tip_error_mm": round(float(np.mean([r["tip_error_mm"] for r in runs])), 2),
-            "wall_s": round(time.perf_counter() - t0, 2), "runs": runs}
+    return {
+        "task": task,
+        "robot": robot,
+        "via": via,
+        "mode": mode,
+        "episodes": episodes,
+        "success_rate": round(ok / episodes, 3),
+        "successes": ok,
+        "mean_tip_error_mm": round(float(np.mean([r["tip_error_mm"] for r in runs])), 2),
+        "wall_s": round(time.perf_counter() - t0, 2),
+        "runs": runs,
+    }
 
 
 def main(argv=None) -> None:

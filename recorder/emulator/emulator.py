@@ -38,24 +38,32 @@ from recorder.protocol.frames import (
 )
 from recorder.protocol.legacy_json import encode_line
 
-FIRMWARE = (0, 1, 0)       # the emulator reports itself as firmware 0.1.0
+FIRMWARE = (0, 1, 0)  # the emulator reports itself as firmware 0.1.0
 GLOVE_ID = 0xE0E0_0001
-BLOCK_S = 0.05             # synthesise motion 50 ms at a time (short: less jitter for an in-process reader)
-FAST_BLOCK_S = 0.5         # bulk generation: larger blocks amortise the synthesis
-MAX_PENDING = 16 * 1024    # bytes held back while the reader is slow; beyond this, frames are dropped
+BLOCK_S = 0.05  # synthesise motion 50 ms at a time (short: less jitter for an in-process reader)
+FAST_BLOCK_S = 0.5  # bulk generation: larger blocks amortise the synthesis
+MAX_PENDING = 16 * 1024  # bytes held back while the reader is slow; beyond this, frames are dropped
 
 
 class Emulator:
-    def __init__(self, rate_hz: float = 200.0, mode: str = "pose", motion="gestures", seed: int = 0,
-                 link: str | None = None, keep_truth: bool = False, firmware: bool = False,
-                 glove_id: int = GLOVE_ID):
+    def __init__(
+        self,
+        rate_hz: float = 200.0,
+        mode: str = "pose",
+        motion="gestures",
+        seed: int = 0,
+        link: str | None = None,
+        keep_truth: bool = False,
+        firmware: bool = False,
+        glove_id: int = GLOVE_ID,
+    ):
         """``motion``: a Motion kind or a Motion-like object. ``firmware``: run the compiled glove core
         (firmware/lib/glove_core) on the synthetic IMU readings instead of encoding frames here: the bytes on
         the pty are then exactly what the real glove's code sends (firmware in the loop). ``glove_id``: what
         the status frames say; it also seeds the IMUs' own errors (turn-on gyro bias, accelerometer offsets),
         so one emulated glove keeps its errors across sessions and seeds, as hardware does, and a calibration
         saved for it (`gloverec calibrate --glove emulator`) holds for every recording with it."""
-        self.sense_hz = float(rate_hz)   # synthesis ("sensing") rate, fixed
+        self.sense_hz = float(rate_hz)  # synthesis ("sensing") rate, fixed
         self.output_hz = float(rate_hz)  # frame rate; SET_RATE lowers it (at most the sensing rate)
         self.mode = Mode[mode.upper()]
         self.core = None
@@ -66,8 +74,8 @@ class Emulator:
         self.link = link
         self.seq = 0
         self.sent_frames = 0
-        self.dropped_frames = 0   # frames a slow reader had no room for
-        self.unread_frames = 0    # frames written while no reader had the port open
+        self.dropped_frames = 0  # frames a slow reader had no room for
+        self.unread_frames = 0  # frames written while no reader had the port open
         self.port: str | None = None
         self._master: int | None = None
         self._pending = b""
@@ -77,9 +85,9 @@ class Emulator:
         self._thread: threading.Thread | None = None  # start(): run in the background
         self.truth_rows: list | None = [] if keep_truth else None  # ground truth per frame sent
         self.realtime = True
-        self.horizon_s = 0.0      # session time up to which motion has been synthesised (fixed from then on)
+        self.horizon_s = 0.0  # session time up to which motion has been synthesised (fixed from then on)
         self.t0_us = None
-        self.lead_s = None        # faster than real time: synthesise no block that starts after this session
+        self.lead_s = None  # faster than real time: synthesise no block that starts after this session
         self._lead = threading.Condition()  # time (None: no limit); a reader raises it with allow()
         self._buttons: list[float] = []
         self._requests: list[str] = []
@@ -101,7 +109,7 @@ class Emulator:
     def plug(self) -> str:
         with self._lock:
             self._master, slave = os.openpty()
-            tty.setraw(slave)              # no echo, no newline translation: the line carries bytes
+            tty.setraw(slave)  # no echo, no newline translation: the line carries bytes
             self.port = os.ttyname(slave)
             # Not holding the slave open makes the pty behave like a USB CDC device: with no reader the
             # bytes are discarded, with a slow reader the buffer fills and frames are dropped (counted).
@@ -162,7 +170,7 @@ class Emulator:
         period = 1.0 / self.sense_hz
         start = time.monotonic()
         t0_us = time.monotonic_ns() // 1000
-        self.t0_us = t0_us & 0xFFFFFFFF   # device clock at session time 0 (faster than real time)
+        self.t0_us = t0_us & 0xFFFFFFFF  # device clock at session time 0 (faster than real time)
         next_status = next_out = 0.0
         k = 0
         block, i = None, 0
@@ -261,11 +269,27 @@ class Emulator:
             data = encode_frame(PoseCompactFrame(self._next_seq(), t_us, block.pose[i][0], angles))
             seq = self.seq
         else:
-            data, seq = encode_frame(RawFrame(self._next_seq(), t_us, block.raw[i], block.accel_fs_g,
-                                              block.gyro_fs_dps, (1 << N_IMUS) - 1)), self.seq
+            data, seq = (
+                encode_frame(
+                    RawFrame(
+                        self._next_seq(), t_us, block.raw[i], block.accel_fs_g, block.gyro_fs_dps, (1 << N_IMUS) - 1
+                    )
+                ),
+                self.seq,
+            )
         if self.truth_rows is not None:
-            self.truth_rows.append((seq, t_us, block.t[i], block.angles[i], block.truth_rel[i], block.tips[i],
-                                    block.palm_quat[i], block.palm_pos[i]))
+            self.truth_rows.append(
+                (
+                    seq,
+                    t_us,
+                    block.t[i],
+                    block.angles[i],
+                    block.truth_rel[i],
+                    block.tips[i],
+                    block.palm_quat[i],
+                    block.palm_pos[i],
+                )
+            )
         return data
 
     def save_truth(self, path: str) -> int:
@@ -290,10 +314,23 @@ class Emulator:
     def _status(self) -> bytes:
         if self.mode == Mode.JSON:
             return b""
-        return encode_frame(StatusFrame(
-            self._next_seq(), self._now_us(), FIRMWARE, self.mode, int(self.sense_hz), int(self.output_hz),
-            CalibState.DONE, 100, CLOCK_HOST_MONOTONIC if self.realtime else 0, self.glove_id,
-            (1 << N_IMUS) - 1, MUX_MAP, JOINT_MAP))
+        return encode_frame(
+            StatusFrame(
+                self._next_seq(),
+                self._now_us(),
+                FIRMWARE,
+                self.mode,
+                int(self.sense_hz),
+                int(self.output_hz),
+                CalibState.DONE,
+                100,
+                CLOCK_HOST_MONOTONIC if self.realtime else 0,
+                self.glove_id,
+                (1 << N_IMUS) - 1,
+                MUX_MAP,
+                JOINT_MAP,
+            )
+        )
 
     def _write(self, data: bytes) -> None:
         """Non-blocking write; a frame that does not fit behind a slow reader is dropped whole."""
@@ -329,7 +366,7 @@ class Emulator:
         view = memoryview(data)
         while view and not self._stop.is_set():
             try:
-                view = view[os.write(self._master, view):]
+                view = view[os.write(self._master, view) :]
             except BlockingIOError:
                 self._poll.poll(50)
             except OSError:
@@ -369,8 +406,9 @@ class Emulator:
     def start(self, duration: float | None = None, realtime: bool = True) -> None:
         """``run`` in a background thread (an in-process glove: the recorder, `gloverec calibrate`);
         ``close`` stops and joins it."""
-        self._thread = threading.Thread(target=self.run, args=(duration,), kwargs={"realtime": realtime},
-                                        name="gloverec-emulator", daemon=True)
+        self._thread = threading.Thread(
+            target=self.run, args=(duration,), kwargs={"realtime": realtime}, name="gloverec-emulator", daemon=True
+        )
         self._thread.start()
 
     def close(self) -> None:

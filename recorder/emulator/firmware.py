@@ -43,19 +43,22 @@ class FirmwareError(RuntimeError):
     """The core cannot be built or started, or it stopped."""
 
 
-def build_core(build_dir: Path | str = BUILD_DIR, target: str | None = "glove_core_cli",
-               source_dir: Path | str = FIRMWARE_DIR) -> Path:
+def build_core(
+    build_dir: Path | str = BUILD_DIR, target: str | None = "glove_core_cli", source_dir: Path | str = FIRMWARE_DIR
+) -> Path:
     """Configure (once) and build firmware/ with cmake + g++; returns the path of glove_core_cli. ``target``
     None builds everything (unit tests, benchmark). Incremental: cheap when nothing changed."""
     missing = [tool for tool in ("cmake", "g++") if shutil.which(tool) is None]
     if missing:
-        raise FirmwareError(f"building the glove core needs {' and '.join(missing)} on PATH "
-                            "(e.g. apt-get install cmake g++)")
+        raise FirmwareError(
+            f"building the glove core needs {' and '.join(missing)} on PATH (e.g. apt-get install cmake g++)"
+        )
     source_dir, build_dir = Path(source_dir), Path(build_dir)
     if not (source_dir / "CMakeLists.txt").exists():
         raise FirmwareError(f"no firmware sources at {source_dir} (firmware in the loop needs a repository checkout)")
-    steps = [["cmake", "--build", str(build_dir), "-j", str(os.cpu_count() or 2)]
-             + (["--target", target] if target else [])]
+    steps = [
+        ["cmake", "--build", str(build_dir), "-j", str(os.cpu_count() or 2)] + (["--target", target] if target else [])
+    ]
     if not (build_dir / "CMakeCache.txt").exists():
         steps.insert(0, ["cmake", "-S", str(source_dir), "-B", str(build_dir)])
     for cmd in steps:
@@ -86,9 +89,19 @@ def monotonic_us() -> int:
 class FirmwareCore:
     """The compiled glove core as a child process. Use as a context manager or call ``close()``."""
 
-    def __init__(self, cli: Path | str | None = None, sense_hz: int = 200, output_hz: int = 100,
-                 mode: str = "pose", clock_host: bool = True, calib_samples: int = 256, n_imu: int = 12,
-                 glove_id: int = 0xF1F1_0001, sync: bool = True, timeout_s: float = 5.0):
+    def __init__(
+        self,
+        cli: Path | str | None = None,
+        sense_hz: int = 200,
+        output_hz: int = 100,
+        mode: str = "pose",
+        clock_host: bool = True,
+        calib_samples: int = 256,
+        n_imu: int = 12,
+        glove_id: int = 0xF1F1_0001,
+        sync: bool = True,
+        timeout_s: float = 5.0,
+    ):
         """cli: glove_core_cli (None: ``build_core()``). calib_samples: boot gyro calibration length, 0 = none
         (the hand must rest for that long: see RestThenMove). clock_host sets the status frames' clock flag."""
         if mode not in MODES:
@@ -101,13 +114,36 @@ class FirmwareCore:
         os.mkfifo(fifo)
         self._rx = os.open(fifo, os.O_RDWR | os.O_NONBLOCK)  # read-write: opening never waits for the core
         ack_r, ack_w = os.pipe()
-        args = [self.cli, "run", "--live", "--stamped", "--rx-fifo", fifo, "--ack-fd", str(ack_w),
-                "--n-imu", str(n_imu), "--sense-rate", str(int(sense_hz)), "--output-rate", str(int(output_hz)),
-                "--mode", mode, "--calib-samples", str(int(calib_samples)), "--glove-id", str(int(glove_id))]
+        args = [
+            self.cli,
+            "run",
+            "--live",
+            "--stamped",
+            "--rx-fifo",
+            fifo,
+            "--ack-fd",
+            str(ack_w),
+            "--n-imu",
+            str(n_imu),
+            "--sense-rate",
+            str(int(sense_hz)),
+            "--output-rate",
+            str(int(output_hz)),
+            "--mode",
+            mode,
+            "--calib-samples",
+            str(int(calib_samples)),
+            "--glove-id",
+            str(int(glove_id)),
+        ]
         try:
-            self.proc = subprocess.Popen(args + (["--clock-host"] if clock_host else []) + ["-"],
-                                         stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                         pass_fds=(ack_w,))
+            self.proc = subprocess.Popen(
+                args + (["--clock-host"] if clock_host else []) + ["-"],
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                pass_fds=(ack_w,),
+            )
         except OSError as exc:
             os.close(ack_r)
             self._cleanup()
@@ -121,8 +157,9 @@ class FirmwareCore:
         self._button = False
 
     # ---------------------------------------------------------------------------------------------- I/O
-    def feed(self, raw, accel_fs_g: int = 16, gyro_fs_dps: int = 2000, t_us: int | None = None,
-             ok_mask: int | None = None) -> None:
+    def feed(
+        self, raw, accel_fs_g: int = 16, gyro_fs_dps: int = 2000, t_us: int | None = None, ok_mask: int | None = None
+    ) -> None:
         """One sensing cycle: raw (n_imu, 7) int16 register counts (ax, ay, az, gx, gy, gz, temp) at the given
         full scales, sampled at device time t_us (default: now, host CLOCK_MONOTONIC µs)."""
         t = monotonic_us() if t_us is None else int(t_us) & 0xFFFFFFFF
@@ -146,7 +183,7 @@ class FirmwareCore:
         view = memoryview(data)
         while view:
             try:
-                view = view[os.write(self._rx, view):]
+                view = view[os.write(self._rx, view) :]
             except BlockingIOError:  # the core is not reading commands (64 kB waiting): drop, as a full UART
                 return
 
@@ -176,7 +213,7 @@ class FirmwareCore:
         rc, self.proc = self.proc.returncode, None
         return rc
 
-    def __enter__(self) -> "FirmwareCore":
+    def __enter__(self) -> FirmwareCore:
         return self
 
     def __exit__(self, *exc) -> None:
@@ -202,7 +239,7 @@ class FirmwareCore:
             _, writable, _ = select.select([], [stdin], [], 0.01)
             if writable:
                 try:
-                    view = view[os.write(stdin, view):]
+                    view = view[os.write(stdin, view) :]
                 except BrokenPipeError:
                     self._check_alive(force=True)
             self._drain()

@@ -48,8 +48,15 @@ class SyntheticGlove:
     """Seeded, continuous glove data at ``rate_hz``. ``motion`` is a Motion kind ("gestures", "random") or a
     Motion-like object (``next_block(n) -> MotionBlock`` and ``rate_hz``, e.g. a scripted demonstration)."""
 
-    def __init__(self, motion="gestures", rate_hz: float = 200.0, seed: int = 0,
-                 pose_noise_deg: float = 0.5, size: HandSize = HandSize(), **imu_options):
+    def __init__(
+        self,
+        motion="gestures",
+        rate_hz: float = 200.0,
+        seed: int = 0,
+        pose_noise_deg: float = 0.5,
+        size: HandSize = HandSize(),
+        **imu_options,
+    ):
         """pose_noise_deg: RMS angle of the orientation noise on ``pose``. imu_options go to ImuArray."""
         self.rate_hz = float(rate_hz)
         self.size = size
@@ -71,5 +78,15 @@ class SyntheticGlove:
         truth = quat.positive(relative_quats(g))
         noise = quat.from_rotvec(self._rng.normal(0.0, self.pose_sigma, (n, N_SEGMENTS, 3)))
         pose = quat.positive(quat.mul(truth, noise)).astype(np.float32)
-        return GloveBlock(m.t, imu.raw, pose, truth, m.angles, tips, m.palm_quat, m.palm_pos,
-                          self.imus.accel_fs_g, self.imus.gyro_fs_dps)
+        return GloveBlock(
+            m.t,
+            imu.raw,
+            pose,
+            truth,
+            m.angles,
+            tips,
+            m.palm_quat,
+            m.palm_pos,
+            self.imus.accel_fs_g,
+            self.imus.gyro_fs_dps,
+        )

@@ -12,7 +12,8 @@ Per sample k (dt = 1 / rate):
   second difference (2 p[k] - 5 p[k-1] + 4 p[k-2] - p[k-3]) / dt² of the IMU's world position; then
   offset + white noise, saturation, quantisation.
 - temperature: warms from ~24 °C toward ~32 °C (skin contact) with a time constant of a few minutes.
-Before the first sample the trajectory is extrapolated back from the first block (see _prime). Samples carry on across calls.
+Before the first sample the trajectory is extrapolated back from the first block (see _prime). Samples carry on
+across calls.
 
 Error figures (MPU9250 datasheet, PS-MPU-9250A-01): gyro noise 0.01 dps/√Hz, initial ZRO tolerance ±5 dps,
 ZRO change with temperature (here ±0.03 dps/°C per axis), accelerometer noise 300 µg/√Hz, zero-g initial
@@ -66,9 +67,18 @@ def quantise(value, lsb_per_unit: float) -> np.ndarray:
 class ImuArray:
     """The 12 IMUs, with seeded per-IMU errors. Call ``sample`` with consecutive blocks of a trajectory."""
 
-    def __init__(self, rate_hz: float, seed: int = 0, accel_fs_g: int = 16, gyro_fs_dps: int = 2000,
-                 noise: bool = True, bias: bool = True, mount_offsets=None, misalign_deg: float = 0.0,
-                 unit_seed: int | None = None):
+    def __init__(
+        self,
+        rate_hz: float,
+        seed: int = 0,
+        accel_fs_g: int = 16,
+        gyro_fs_dps: int = 2000,
+        noise: bool = True,
+        bias: bool = True,
+        mount_offsets=None,
+        misalign_deg: float = 0.0,
+        unit_seed: int | None = None,
+    ):
         """mount_offsets (12, 3) m: IMU position in its segment frame (default 0). noise: white noise on
         gyro, accelerometer and temperature. bias: gyro bias (turn-on + temperature drift) and accelerometer
         offset. misalign_deg: RMS angle of a fixed random mounting rotation per IMU (default none).
@@ -125,7 +135,7 @@ class ImuArray:
         self._prev_q, self._prev_p = qq[-1:], pp[-3:]
 
         gyro = quat.to_rotvec(quat.mul(quat.conj(qq[:-1]), qq[1:])) / self.dt
-        a_world = (2.0 * pp[3:] - 5.0 * pp[2:-1] + 4.0 * pp[1:-2] - pp[:-3]) / self.dt ** 2
+        a_world = (2.0 * pp[3:] - 5.0 * pp[2:-1] + 4.0 * pp[1:-2] - pp[:-3]) / self.dt**2
         accel = quat.rotate(quat.conj(q), a_world - G_WORLD)
 
         t = (self._k + np.arange(n)) * self.dt

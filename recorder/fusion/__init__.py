@@ -11,4 +11,13 @@ from recorder.fusion.config import FusionConfig
 from recorder.fusion.host import Fused, FusedFrame, HostFusion
 from recorder.fusion.registry import FILTERS, make_filter, settings_for
 
-__all__ = ["FILTERS", "Fused", "FusedFrame", "FusionConfig", "HostFusion", "filter_block", "make_filter", "settings_for"]
+__all__ = [
+    "FILTERS",
+    "Fused",
+    "FusedFrame",
+    "FusionConfig",
+    "HostFusion",
+    "filter_block",
+    "make_filter",
+    "settings_for",
+]

@@ -27,11 +27,11 @@ UP = np.array([0.0, 0.0, 1.0])
 
 @dataclass
 class BiasSettings:
-    ki: float = 0.001          # rad/s^2 per unit gravity error (source 1; 0 disables)
-    still_rate: float = 0.03   # rad/s (source 2)
+    ki: float = 0.001  # rad/s^2 per unit gravity error (source 1; 0 disables)
+    still_rate: float = 0.03  # rad/s (source 2)
     still_time_s: float = 0.5
     still_tau_s: float = 2.0
-    max_bias: float = 0.2      # rad/s: the estimate is clamped to this per axis
+    max_bias: float = 0.2  # rad/s: the estimate is clamped to this per axis
 
 
 class BiasTracker:

@@ -30,8 +30,9 @@ def filter_block(filt: Filter, gyro, accel, dt, mask=None, engine: str = "auto")
     gyro = np.ascontiguousarray(gyro, float)
     accel = np.ascontiguousarray(accel, float)
     T, n = gyro.shape[:2]
-    dts = np.ascontiguousarray(np.broadcast_to(np.asarray(dt, float).reshape((-1, 1) if np.ndim(dt) == 1
-                                                                              else np.shape(dt)), (T, n)))
+    dts = np.ascontiguousarray(
+        np.broadcast_to(np.asarray(dt, float).reshape((-1, 1) if np.ndim(dt) == 1 else np.shape(dt)), (T, n))
+    )
     masks = _masks(mask, T, n)
     if engine not in ("auto", "numba", "numpy"):
         raise ValueError(f"engine must be auto, numba or numpy, got {engine!r}")
@@ -45,17 +46,50 @@ def filter_block(filt: Filter, gyro, accel, dt, mask=None, engine: str = "auto")
     s = filt.settings
     if isinstance(filt, ComplementaryFilter):
         m = filt.median
-        kernels.complementary(filt.q, m.buf, m.head, m.count, filt.gain, gyro, accel, dts, masks,
-                              s.static_gain, s.threshold1, s.threshold2, out)
+        kernels.complementary(
+            filt.q,
+            m.buf,
+            m.head,
+            m.count,
+            filt.gain,
+            gyro,
+            accel,
+            dts,
+            masks,
+            s.static_gain,
+            s.threshold1,
+            s.threshold2,
+            out,
+        )
     elif isinstance(filt, MahonyFilter):
-        kernels.mahony(filt.q, filt.bias, gyro, accel, dts, masks, s.kp, s.ki, s.threshold1, s.threshold2,
-                       s.integral_limit, out)
+        kernels.mahony(
+            filt.q, filt.bias, gyro, accel, dts, masks, s.kp, s.ki, s.threshold1, s.threshold2, s.integral_limit, out
+        )
     elif isinstance(filt, MadgwickFilter):
         kernels.madgwick(filt.q, gyro, accel, dts, masks, s.beta, s.threshold1, s.threshold2, out)
     elif isinstance(filt, RelativeFilter):
-        kernels.relative(filt.q, filt.rel, filt.root.q, filt.root.bias, filt.bias, filt.parents.astype(np.int64),
-                         np.asarray(filt.order, np.int64), gyro, accel, dts, masks, s.kp, s.ki, s.root_kp,
-                         s.root_ki, s.threshold1, s.threshold2, s.integral_limit, bool(s.rotate_parent_rate), out)
+        kernels.relative(
+            filt.q,
+            filt.rel,
+            filt.root.q,
+            filt.root.bias,
+            filt.bias,
+            filt.parents.astype(np.int64),
+            np.asarray(filt.order, np.int64),
+            gyro,
+            accel,
+            dts,
+            masks,
+            s.kp,
+            s.ki,
+            s.root_kp,
+            s.root_ki,
+            s.threshold1,
+            s.threshold2,
+            s.integral_limit,
+            bool(s.rotate_parent_rate),
+            out,
+        )
     else:  # a filter without a kernel: the reference loop
         for t in range(T):
             out[t] = filt.update(gyro[t], accel[t], dts[t], masks[t])

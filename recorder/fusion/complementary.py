@@ -35,10 +35,10 @@ UP = np.array([0.0, 0.0, 1.0])
 
 @dataclass
 class ComplementarySettings:
-    static_gain: float = 0.005   # alpha-bar of eq. 3.18 (thesis §4.2.4)
-    threshold1: float = 0.1      # t1 of eq. 3.19
-    threshold2: float = 0.2      # t2 of eq. 3.19
-    median_window: int = 12      # thesis §4.2.2; 1 disables the median filter
+    static_gain: float = 0.005  # alpha-bar of eq. 3.18 (thesis §4.2.4)
+    threshold1: float = 0.1  # t1 of eq. 3.19
+    threshold2: float = 0.2  # t2 of eq. 3.19
+    median_window: int = 12  # thesis §4.2.2; 1 disables the median filter
 
 
 def adaptive_gain(settings, accel_norm) -> np.ndarray:
@@ -88,23 +88,27 @@ class ComplementaryFilter(Filter):
     def update(self, gyro, accel, dt, mask=None) -> np.ndarray:
         m = as_mask(mask, self.n)
         dt = np.broadcast_to(np.asarray(dt, float), (self.n,))[m]
-        a = self.median.push(accel, m)[m]                                  # 1
+        a = self.median.push(accel, m)[m]  # 1
         qw = propagate(self.q[m], np.asarray(gyro, float).reshape(self.n, 3)[m], dt)  # 2
         an = np.linalg.norm(a, axis=1)
-        alpha = adaptive_gain(self.settings, an)                           # 3
-        on = alpha > 0.0                                                   # 4
-        gp = quat.rotate(qw[on], a[on] / an[on, None])                     # 5
-        dq = to_up(gp)                                                     # 6
+        alpha = adaptive_gain(self.settings, an)  # 3
+        on = alpha > 0.0  # 4
+        gp = quat.rotate(qw[on], a[on] / an[on, None])  # 5
+        dq = to_up(gp)  # 6
         k = alpha[on, None]
-        dq = quat.normalize((1.0 - k) * quat.IDENTITY + k * dq)            # 7
-        qw[on] = quat.normalize(quat.mul(dq, qw[on]))                      # 8
+        dq = quat.normalize((1.0 - k) * quat.IDENTITY + k * dq)  # 7
+        qw[on] = quat.normalize(quat.mul(dq, qw[on]))  # 8
         self.q[m] = qw
         self.gain[m] = alpha
         return self.q
 
     def state(self) -> dict:
-        return super().state() | {"buf": self.median.buf.copy(), "head": self.median.head.copy(),
-                                  "count": self.median.count.copy(), "gain": self.gain.copy()}
+        return super().state() | {
+            "buf": self.median.buf.copy(),
+            "head": self.median.head.copy(),
+            "count": self.median.count.copy(),
+            "gain": self.gain.copy(),
+        }
 
     def load_state(self, state: dict) -> None:
         state = dict(state)

@@ -21,17 +21,17 @@ class FusionConfig:
 
     filter: str = "mahony"
     filter_settings: dict = field(default_factory=dict)
-    rate_hz: float = 200.0           # nominal sensing rate (calibration recordings given without times)
-    max_dt_s: float = 0.05           # longest gap integrated in one step (as the firmware)
+    rate_hz: float = 200.0  # nominal sensing rate (calibration recordings given without times)
+    max_dt_s: float = 0.05  # longest gap integrated in one step (as the firmware)
     track_bias: bool = True
     bias: BiasSettings = field(default_factory=BiasSettings)
-    heading_rate: float = 2.0        # 1/s: joint-constraint heading feedback into C (0 disables)
+    heading_rate: float = 2.0  # 1/s: joint-constraint heading feedback into C (0 disables)
     heading_bias_rate: float | None = None  # 1/s^2: the same into the bias tracker (None: per filter)
     parent_share: float | None = None  # share of a joint's heading error corrected on the parent's side
     # (None: PARENT_SHARE[filter]; the relative filter composes children from parents, so 0 there)
-    min_visibility: float = 0.3      # a joint feeds back only when it sees this much of a heading change
-    limits: bool = True              # clamp joint angles to the anatomical limits
-    engine: str = "auto"             # "numba" | "numpy" | "auto"
+    min_visibility: float = 0.3  # a joint feeds back only when it sees this much of a heading change
+    limits: bool = True  # clamp joint angles to the anatomical limits
+    engine: str = "auto"  # "numba" | "numpy" | "auto"
 
     def __post_init__(self):
         if self.filter not in FILTERS:
@@ -47,7 +47,7 @@ class FusionConfig:
             raise ValueError(f"engine must be auto, numba or numpy, got {self.engine!r}")
 
     @classmethod
-    def load(cls, path, **overrides) -> "FusionConfig":
+    def load(cls, path, **overrides) -> FusionConfig:
         """From a YAML file (keys as the fields), with keyword overrides (e.g. from the command line)."""
         import yaml
 

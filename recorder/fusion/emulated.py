@@ -19,11 +19,18 @@ from recorder.hand.kinematics import JOINTS, N_JOINTS, interpolate_dip
 HOLD, FLEX, MOVE, TILT_HOLD, REST, BLEND = 3.0, 3.0, 0.8, 0.8, 2.0, 1.0
 TILTS_DEG = ((0, 0, 0), (0, 45, 0), (0, -45, 0), (45, 0, 0), (-45, 0, 0), (0, 0, 0))  # palm rotation vectors
 TILT = (len(TILTS_DEG) - 1) * (MOVE + TILT_HOLD)
-PHASES = {"still": (0.0, HOLD), "flex": (HOLD, HOLD + FLEX), "tilt": (HOLD + FLEX, HOLD + FLEX + TILT),
-          "rest": (HOLD + FLEX + TILT, HOLD + FLEX + TILT + REST)}
+PHASES = {
+    "still": (0.0, HOLD),
+    "flex": (HOLD, HOLD + FLEX),
+    "tilt": (HOLD + FLEX, HOLD + FLEX + TILT),
+    "rest": (HOLD + FLEX + TILT, HOLD + FLEX + TILT + REST),
+}
 START = HOLD + FLEX + TILT + REST + BLEND  # the motion's t = 0
-FLEXED = tuple(JOINTS.index(j) for j in JOINTS
-               if j.endswith(("mcp_flex", "_pip")) or j in ("thumb_cmc_flex", "thumb_mcp", "thumb_ip"))
+FLEXED = tuple(
+    JOINTS.index(j)
+    for j in JOINTS
+    if j.endswith(("mcp_flex", "_pip")) or j in ("thumb_cmc_flex", "thumb_mcp", "thumb_ip")
+)
 
 
 class ProcedureMotion:
@@ -46,8 +53,9 @@ class ProcedureMotion:
         u = np.clip((tt - k * (MOVE + TILT_HOLD)) / MOVE, 0.0, 1.0)
         keys = np.radians(np.array(TILTS_DEG, float))
         tilting = (tt >= 0.0) & (tt < TILT)
-        palm = quat.from_rotvec(np.where(tilting[:, None], keys[k] + (keys[k + 1] - keys[k]) * _min_jerk(u)[:, None],
-                                         0.0))
+        palm = quat.from_rotvec(
+            np.where(tilting[:, None], keys[k] + (keys[k + 1] - keys[k]) * _min_jerk(u)[:, None], 0.0)
+        )
         pos = np.zeros((n, 3))
         m0 = self.motion.at(np.array([0.0]))
         b = _min_jerk(np.clip((t - (START - BLEND)) / BLEND, 0.0, 1.0))[:, None]

@@ -50,8 +50,8 @@ _NO_IMU = [s for s in range(N_SEGMENTS) if s not in JOINT_MAP]
 
 @dataclass
 class Fused:
-    """Fusion output for T frames (``process_block``, ``pose_block``): quats (T, 16, 4) parent-relative (row 0: the palm in
-    the world), angles (T, 20) rad, valid (T, 20) bool, flags (T, 12) uint8 (recorder.fusion.quality), and
+    """Fusion output for T frames (``process_block``, ``pose_block``): quats (T, 16, 4) parent-relative (row 0: the
+    palm in the world), angles (T, 20) rad, valid (T, 20) bool, flags (T, 12) uint8 (recorder.fusion.quality), and
     quality arrays (T, 12): accel_error (| |a| - 1 | g), trust (accelerometer trust 0..1), bias_change
     (|online bias estimate| rad/s), constraint (rad the joint dimensionality removed), heading (rad of heading
     correction applied since the reference pose: the drift the constraints found)."""
@@ -69,15 +69,29 @@ class Fused:
     heading: np.ndarray
     source: str = "raw"
 
-    def frame(self, k: int = -1) -> "FusedFrame":
+    def frame(self, k: int = -1) -> FusedFrame:
         """Frame k alone (what ``process`` returns for one glove frame)."""
         fused = self.flags[k] == 0
         aerr = np.where(fused, self.accel_error[k], 0.0)
-        detail = {"accel_error": self.accel_error[k], "trust": self.trust[k], "bias_change": self.bias_change[k],
-                  "constraint": self.constraint[k], "heading": self.heading[k],
-                  "flagged_imus": int(np.count_nonzero(self.flags[k]))}
-        return FusedFrame(int(self.seq[k]), int(self.t_us[k]), self.quats[k], self.angles[k], self.valid[k],
-                          self.flags[k], float(np.max(aerr)) if aerr.size else 0.0, detail, self.source)
+        detail = {
+            "accel_error": self.accel_error[k],
+            "trust": self.trust[k],
+            "bias_change": self.bias_change[k],
+            "constraint": self.constraint[k],
+            "heading": self.heading[k],
+            "flagged_imus": int(np.count_nonzero(self.flags[k])),
+        }
+        return FusedFrame(
+            int(self.seq[k]),
+            int(self.t_us[k]),
+            self.quats[k],
+            self.angles[k],
+            self.valid[k],
+            self.flags[k],
+            float(np.max(aerr)) if aerr.size else 0.0,
+            detail,
+            self.source,
+        )
 
 
 @dataclass
@@ -167,9 +181,15 @@ class HostFusion:
             quality["flexion_axis_ok"] = (turned & (np.arange(N_IMUS) > 0)).tolist()
         mounts = cal.align(np.mean(a, axis=0) - offset, axes, self.calibration.reference_angles)
         self.calibration = cal.GloveCalibration(
-            glove_id=self.calibration.glove_id if glove_id is None else glove_id, created=cal.created_now(),
-            gyro_bias=bias, gyro_bias_temp_c=temp, accel_offset=offset, mounts=mounts,
-            reference_angles=self.calibration.reference_angles.copy(), quality=quality)
+            glove_id=self.calibration.glove_id if glove_id is None else glove_id,
+            created=cal.created_now(),
+            gyro_bias=bias,
+            gyro_bias_temp_c=temp,
+            accel_offset=offset,
+            mounts=mounts,
+            reference_angles=self.calibration.reference_angles.copy(),
+            quality=quality,
+        )
         return self.calibration
 
     def start(self, still) -> None:
@@ -201,8 +221,9 @@ class HostFusion:
     def process(self, frame) -> FusedFrame | None:
         """One frame: a FusedFrame for raw and pose frames, None for others (BUTTON events reset)."""
         if isinstance(frame, RawFrame):
-            return self.process_block(frame.data[None], [frame.t_us], [frame.ok_mask], frame.accel_fs_g,
-                                      frame.gyro_fs_dps, [frame.seq]).frame(0)
+            return self.process_block(
+                frame.data[None], [frame.t_us], [frame.ok_mask], frame.accel_fs_g, frame.gyro_fs_dps, [frame.seq]
+            ).frame(0)
         if isinstance(frame, PoseFrame):
             return self.pose_block(frame.quats[None], [frame.t_us], [frame.seq]).frame(0)
         if isinstance(frame, EventFrame) and frame.code == EventCode.BUTTON:
@@ -225,8 +246,7 @@ class HostFusion:
         valid = np.repeat(finite[:, None], N_JOINTS, axis=1)
         return Fused(_seq(seq, T), np.asarray(t_us, np.int64), q, angles, valid, flags, z, z, z, z, z, "pose")
 
-    def process_block(self, raw, t_us, ok_mask=None, accel_fs_g: int = 16, gyro_fs_dps: int = 2000,
-                      seq=None) -> Fused:
+    def process_block(self, raw, t_us, ok_mask=None, accel_fs_g: int = 16, gyro_fs_dps: int = 2000, seq=None) -> Fused:
         """T raw frames at once (raw (T, 12, 7) registers, t_us (T,) device µs, ok_mask (T,) bit masks)."""
         raw = np.asarray(raw)
         T = len(raw)
@@ -247,8 +267,19 @@ class HostFusion:
                 self._step(first, accel[first], gyro[first], int(t_us[first]), fuse[first], out)
             k = first + 1
         valid = ~(~fuse[:, None, :] & _JOINT_IMU_MASK[None]).any(axis=2)
-        return Fused(_seq(seq, T), t_us, out.quats, out.angles, valid, flags, out.accel_error, out.trust,
-                     out.bias_change, out.constraint, out.heading)
+        return Fused(
+            _seq(seq, T),
+            t_us,
+            out.quats,
+            out.angles,
+            valid,
+            flags,
+            out.accel_error,
+            out.trust,
+            out.bias_change,
+            out.constraint,
+            out.heading,
+        )
 
     def _steps(self, k0, k1, accel, gyro, t_us, fuse, out) -> None:
         if self.config.engine == "numpy" or not kernels.AVAILABLE:
@@ -262,11 +293,17 @@ class HostFusion:
             fp, med = [s.static_gain, s.threshold1, s.threshold2], f.median
             buf, head, count, gain = med.buf, med.head, med.count, f.gain
         else:
-            buf, head, count, gain = np.zeros((N_IMUS, 1, 3)), np.zeros(N_IMUS, np.int64), \
-                np.zeros(N_IMUS, np.int64), np.zeros(N_IMUS)
-            fp = {1: lambda: [s.kp, s.ki, s.threshold1, s.threshold2, s.integral_limit],
-                  2: lambda: [s.beta, s.threshold1, s.threshold2],
-                  3: lambda: [s.kp, s.ki, s.root_kp, s.root_ki, s.threshold1, s.threshold2, s.integral_limit]}[kind]()
+            buf, head, count, gain = (
+                np.zeros((N_IMUS, 1, 3)),
+                np.zeros(N_IMUS, np.int64),
+                np.zeros(N_IMUS, np.int64),
+                np.zeros(N_IMUS),
+            )
+            fp = {
+                1: lambda: [s.kp, s.ki, s.threshold1, s.threshold2, s.integral_limit],
+                2: lambda: [s.beta, s.threshold1, s.threshold2],
+                3: lambda: [s.kp, s.ki, s.root_kp, s.root_ki, s.threshold1, s.threshold2, s.integral_limit],
+            }[kind]()
         if kind == 3:
             rel, root_q, root_bias = f.rel, f.root.q, f.root.bias
             parents, order = f.parents.astype(np.int64), np.asarray(f.order, np.int64)
@@ -276,17 +313,58 @@ class HostFusion:
         b = c.bias
         tab = _TABLES
         sl = slice(k0, k1)
-        pipeline.run(kind, f.q, f.bias, buf, head, count, gain, rel, root_q, root_bias, parents, order,
-                     np.array(fp, float), bool(getattr(s, "rotate_parent_rate", True)), tr.b, tr.still_for,
-                     np.array([b.ki, b.still_rate, b.still_time_s, b.still_tau_s, b.max_bias], float),
-                     tr.use_gravity, c.track_bias, self.C, self.heading, self.last_t,
-                     np.ascontiguousarray(quat.conj(self.calibration.mounts)), c.heading_rate, c.heading_bias_rate,
-                     c.max_dt_s, c.parent_share, c.min_visibility, tab["imu_seg"], tab["parents"], tab["parent_imu"], tab["kind"],
-                     tab["flex"], tab["abd"], tab["rest"], tab["limits"], tab["pip"], tab["dip"], c.limits,
-                     np.ascontiguousarray(accel[sl]),
-                     np.ascontiguousarray(gyro[sl]), np.ascontiguousarray(t_us[sl]), np.ascontiguousarray(fuse[sl]),
-                     out.quats[sl], out.angles[sl], out.accel_error[sl], out.trust[sl], out.bias_change[sl],
-                     out.constraint[sl], out.heading[sl])
+        pipeline.run(
+            kind,
+            f.q,
+            f.bias,
+            buf,
+            head,
+            count,
+            gain,
+            rel,
+            root_q,
+            root_bias,
+            parents,
+            order,
+            np.array(fp, float),
+            bool(getattr(s, "rotate_parent_rate", True)),
+            tr.b,
+            tr.still_for,
+            np.array([b.ki, b.still_rate, b.still_time_s, b.still_tau_s, b.max_bias], float),
+            tr.use_gravity,
+            c.track_bias,
+            self.C,
+            self.heading,
+            self.last_t,
+            np.ascontiguousarray(quat.conj(self.calibration.mounts)),
+            c.heading_rate,
+            c.heading_bias_rate,
+            c.max_dt_s,
+            c.parent_share,
+            c.min_visibility,
+            tab["imu_seg"],
+            tab["parents"],
+            tab["parent_imu"],
+            tab["kind"],
+            tab["flex"],
+            tab["abd"],
+            tab["rest"],
+            tab["limits"],
+            tab["pip"],
+            tab["dip"],
+            c.limits,
+            np.ascontiguousarray(accel[sl]),
+            np.ascontiguousarray(gyro[sl]),
+            np.ascontiguousarray(t_us[sl]),
+            np.ascontiguousarray(fuse[sl]),
+            out.quats[sl],
+            out.angles[sl],
+            out.accel_error[sl],
+            out.trust[sl],
+            out.bias_change[sl],
+            out.constraint[sl],
+            out.heading[sl],
+        )
 
     # ------------------------------------------------------------------ one step (the numpy reference)
     def _step(self, k, accel, gyro, t_us, fuse, out) -> None:
@@ -355,7 +433,8 @@ class _Out:
         self.quats = np.empty((T, N_SEGMENTS, 4))
         self.angles = np.empty((T, N_JOINTS))
         self.accel_error, self.trust, self.bias_change, self.constraint, self.heading = (
-            np.empty((T, N_IMUS)) for _ in range(5))
+            np.empty((T, N_IMUS)) for _ in range(5)
+        )
 
 
 def _seq(seq, T):

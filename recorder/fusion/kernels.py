@@ -12,6 +12,7 @@ import numpy as np
 
 try:
     from numba import njit
+
     AVAILABLE = True
 except ImportError:  # pragma: no cover - numba is an optional speed-up
     AVAILABLE = False
@@ -28,8 +29,12 @@ def _normalize(w, x, y, z):
 
 @njit(cache=True)
 def _mul(aw, ax, ay, az, bw, bx, by, bz):
-    return (aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw)
+    return (
+        aw * bw - ax * bx - ay * by - az * bz,
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+    )
 
 
 @njit(cache=True)
@@ -123,8 +128,12 @@ def complementary_step(q, buf, head, count, gain, srt, a, gyro, accel, dt, mask,
         w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
         hd = 0.5 * dt[i]
         hx, hy, hz = hd * gyro[i, 0], hd * gyro[i, 1], hd * gyro[i, 2]
-        w, x, y, z = _normalize(w - hx * x - hy * y - hz * z, x + hx * w - hy * z + hz * y,
-                                y + hx * z + hy * w - hz * x, z - hx * y + hy * x + hz * w)
+        w, x, y, z = _normalize(
+            w - hx * x - hy * y - hz * z,
+            x + hx * w - hy * z + hz * y,
+            y + hx * z + hy * w - hz * x,
+            z - hx * y + hy * x + hz * w,
+        )
         an = math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
         alpha = static_gain * _gain_factor(an, t1, t2)
         if alpha > 0.0:
@@ -181,8 +190,24 @@ def mahony_step(q, bias, gyro, accel, dt, mask, kp, ki, t1, t2, il):
     for i in range(q.shape[0]):
         if mask[i]:
             q[i, 0], q[i, 1], q[i, 2], q[i, 3] = _mahony_step(
-                q[i, 0], q[i, 1], q[i, 2], q[i, 3], bias[i], gyro[i, 0], gyro[i, 1], gyro[i, 2],
-                accel[i, 0], accel[i, 1], accel[i, 2], dt[i], kp, ki, t1, t2, il)
+                q[i, 0],
+                q[i, 1],
+                q[i, 2],
+                q[i, 3],
+                bias[i],
+                gyro[i, 0],
+                gyro[i, 1],
+                gyro[i, 2],
+                accel[i, 0],
+                accel[i, 1],
+                accel[i, 2],
+                dt[i],
+                kp,
+                ki,
+                t1,
+                t2,
+                il,
+            )
 
 
 @njit(cache=True)
@@ -220,8 +245,11 @@ def madgwick_step(q, gyro, accel, dt, mask, beta, t1, t2):
         dw, dx, dy, dz = _mul(w, x, y, z, 0.0, gyro[i, 0], gyro[i, 1], gyro[i, 2])
         h = dt[i]
         q[i, 0], q[i, 1], q[i, 2], q[i, 3] = _normalize(
-            w + (0.5 * dw - beta * sw) * h, x + (0.5 * dx - beta * sx) * h,
-            y + (0.5 * dy - beta * sy) * h, z + (0.5 * dz - beta * sz) * h)
+            w + (0.5 * dw - beta * sw) * h,
+            x + (0.5 * dx - beta * sx) * h,
+            y + (0.5 * dy - beta * sy) * h,
+            z + (0.5 * dz - beta * sz) * h,
+        )
 
 
 @njit(cache=True)
@@ -232,8 +260,27 @@ def madgwick(q, gyro, accel, dt, mask, beta, t1, t2, out):
 
 
 @njit(cache=True)
-def relative_step(q, rel, root_q, root_bias, bias, parents, order, gyro, accel, dt, mask,
-                  kp, ki, root_kp, root_ki, t1, t2, il, rotate_parent):
+def relative_step(
+    q,
+    rel,
+    root_q,
+    root_bias,
+    bias,
+    parents,
+    order,
+    gyro,
+    accel,
+    dt,
+    mask,
+    kp,
+    ki,
+    root_kp,
+    root_ki,
+    t1,
+    t2,
+    il,
+    rotate_parent,
+):
     """recorder/fusion/relative.py (Algorithm 2, roots by Algorithm 1), one sample of every IMU."""
     n = gyro.shape[0]
     for i in range(n):
@@ -241,9 +288,24 @@ def relative_step(q, rel, root_q, root_bias, bias, parents, order, gyro, accel, 
         if p < 0:
             if mask[i]:
                 root_q[i, 0], root_q[i, 1], root_q[i, 2], root_q[i, 3] = _mahony_step(
-                    root_q[i, 0], root_q[i, 1], root_q[i, 2], root_q[i, 3], root_bias[i],
-                    gyro[i, 0], gyro[i, 1], gyro[i, 2], accel[i, 0], accel[i, 1],
-                    accel[i, 2], dt[i], root_kp, root_ki, t1, t2, il)
+                    root_q[i, 0],
+                    root_q[i, 1],
+                    root_q[i, 2],
+                    root_q[i, 3],
+                    root_bias[i],
+                    gyro[i, 0],
+                    gyro[i, 1],
+                    gyro[i, 2],
+                    accel[i, 0],
+                    accel[i, 1],
+                    accel[i, 2],
+                    dt[i],
+                    root_kp,
+                    root_ki,
+                    t1,
+                    t2,
+                    il,
+                )
             continue
         if not (mask[i] and mask[p]):
             continue
@@ -269,9 +331,11 @@ def relative_step(q, rel, root_q, root_bias, bias, parents, order, gyro, accel, 
             ox, oy, oz = _rotate(w, -x, -y, -z, gyro[p, 0], gyro[p, 1], gyro[p, 2])
         else:
             ox, oy, oz = gyro[p, 0], gyro[p, 1], gyro[p, 2]
-        rw, rx, ry, rz = _exp((gyro[i, 0] - ox + kp * ex - bias[i, 0]) * h,
-                              (gyro[i, 1] - oy + kp * ey - bias[i, 1]) * h,
-                              (gyro[i, 2] - oz + kp * ez - bias[i, 2]) * h)
+        rw, rx, ry, rz = _exp(
+            (gyro[i, 0] - ox + kp * ex - bias[i, 0]) * h,
+            (gyro[i, 1] - oy + kp * ey - bias[i, 1]) * h,
+            (gyro[i, 2] - oz + kp * ez - bias[i, 2]) * h,
+        )
         rel[i, 0], rel[i, 1], rel[i, 2], rel[i, 3] = _normalize(*_mul(w, x, y, z, rw, rx, ry, rz))
     for k in range(n):
         i = order[k]
@@ -282,14 +346,54 @@ def relative_step(q, rel, root_q, root_bias, bias, parents, order, gyro, accel, 
             for c in range(3):
                 bias[i, c] = root_bias[i, c]
         else:
-            q[i, 0], q[i, 1], q[i, 2], q[i, 3] = _mul(q[p, 0], q[p, 1], q[p, 2], q[p, 3],
-                                                      rel[i, 0], rel[i, 1], rel[i, 2], rel[i, 3])
+            q[i, 0], q[i, 1], q[i, 2], q[i, 3] = _mul(
+                q[p, 0], q[p, 1], q[p, 2], q[p, 3], rel[i, 0], rel[i, 1], rel[i, 2], rel[i, 3]
+            )
 
 
 @njit(cache=True)
-def relative(q, rel, root_q, root_bias, bias, parents, order, gyro, accel, dt, mask,
-             kp, ki, root_kp, root_ki, t1, t2, il, rotate_parent, out):
+def relative(
+    q,
+    rel,
+    root_q,
+    root_bias,
+    bias,
+    parents,
+    order,
+    gyro,
+    accel,
+    dt,
+    mask,
+    kp,
+    ki,
+    root_kp,
+    root_ki,
+    t1,
+    t2,
+    il,
+    rotate_parent,
+    out,
+):
     for t in range(gyro.shape[0]):
-        relative_step(q, rel, root_q, root_bias, bias, parents, order, gyro[t], accel[t], dt[t], mask[t],
-                      kp, ki, root_kp, root_ki, t1, t2, il, rotate_parent)
+        relative_step(
+            q,
+            rel,
+            root_q,
+            root_bias,
+            bias,
+            parents,
+            order,
+            gyro[t],
+            accel[t],
+            dt[t],
+            mask[t],
+            kp,
+            ki,
+            root_kp,
+            root_ki,
+            t1,
+            t2,
+            il,
+            rotate_parent,
+        )
         out[t] = q

@@ -18,7 +18,7 @@ from recorder.fusion.base import Filter
 
 @dataclass
 class MadgwickSettings:
-    beta: float = 0.01       # rad/s: gradient step (Madgwick: sqrt(3/4) x gyro error)
+    beta: float = 0.01  # rad/s: gradient step (Madgwick: sqrt(3/4) x gyro error)
     threshold1: float = 0.1  # accelerometer trust, thesis eq. 3.19
     threshold2: float = 0.2
 
@@ -30,12 +30,15 @@ def gradient(q, a_n) -> np.ndarray:
     f1 = 2.0 * (x * z - w * y) - ax
     f2 = 2.0 * (w * x + y * z) - ay
     f3 = 1.0 - 2.0 * (x * x + y * y) - az
-    return np.stack((
-        -2.0 * y * f1 + 2.0 * x * f2,
-        2.0 * z * f1 + 2.0 * w * f2 - 4.0 * x * f3,
-        -2.0 * w * f1 + 2.0 * z * f2 - 4.0 * y * f3,
-        2.0 * x * f1 + 2.0 * y * f2,
-    ), axis=1)
+    return np.stack(
+        (
+            -2.0 * y * f1 + 2.0 * x * f2,
+            2.0 * z * f1 + 2.0 * w * f2 - 4.0 * x * f3,
+            -2.0 * w * f1 + 2.0 * z * f2 - 4.0 * y * f3,
+            2.0 * x * f1 + 2.0 * y * f2,
+        ),
+        axis=1,
+    )
 
 
 class MadgwickFilter(Filter):
@@ -49,10 +52,10 @@ class MadgwickFilter(Filter):
         s = self.settings
         m, dt, a, an, trust = self._inputs(accel, dt, mask, s.threshold1, s.threshold2)
         q = self.q[m]
-        grad = gradient(q, np.where(trust > 0.0, a / np.where(an > 0.0, an, 1.0), 0.0))   # 1
+        grad = gradient(q, np.where(trust > 0.0, a / np.where(an > 0.0, an, 1.0), 0.0))  # 1
         gn = np.linalg.norm(grad, axis=1, keepdims=True)
-        step = trust * np.where(gn > 0.0, grad / np.where(gn > 0.0, gn, 1.0), 0.0)          # 2
+        step = trust * np.where(gn > 0.0, grad / np.where(gn > 0.0, gn, 1.0), 0.0)  # 2
         g = np.asarray(gyro, float).reshape(self.n, 3)[m]
         qdot = 0.5 * quat.mul(q, np.concatenate((np.zeros((len(g), 1)), g), axis=1)) - s.beta * step
-        self.q[m] = quat.normalize(q + qdot * dt)                                           # 3
+        self.q[m] = quat.normalize(q + qdot * dt)  # 3
         return self.q

@@ -28,8 +28,8 @@ UP = np.array([0.0, 0.0, 1.0])
 
 @dataclass
 class MahonySettings:
-    kp: float = 0.5          # rad/s per unit error: correction time constant 1 / kp seconds
-    ki: float = 0.002        # rad/s^2 per unit error: bias estimation
+    kp: float = 0.5  # rad/s per unit error: correction time constant 1 / kp seconds
+    ki: float = 0.002  # rad/s^2 per unit error: bias estimation
     integral_limit: float = 0.1  # |e| (about radians) above which the integral holds
     threshold1: float = 0.1  # accelerometer trust, thesis eq. 3.19 (e_m in g)
     threshold2: float = 0.2
@@ -45,13 +45,13 @@ class MahonyFilter(Filter):
     def update(self, gyro, accel, dt, mask=None) -> np.ndarray:
         s = self.settings
         m, dt, a, an, trust = self._inputs(accel, dt, mask, s.threshold1, s.threshold2)
-        a_n = np.where(trust > 0.0, a / np.where(an > 0.0, an, 1.0), 0.0)     # 1
+        a_n = np.where(trust > 0.0, a / np.where(an > 0.0, an, 1.0), 0.0)  # 1
         q = self.q[m]
-        v = quat.rotate(quat.conj(q), UP)                                     # 2
-        e = trust * np.cross(a_n, v)                                          # 3
+        v = quat.rotate(quat.conj(q), UP)  # 2
+        e = trust * np.cross(a_n, v)  # 3
         small = np.linalg.norm(e, axis=1, keepdims=True) < s.integral_limit
-        bias = self.bias[m] - np.where(small, s.ki * e * dt, 0.0)            # 4
-        w = np.asarray(gyro, float).reshape(self.n, 3)[m] + s.kp * e - bias   # 5
-        self.q[m] = quat.normalize(quat.mul(q, quat.from_rotvec(w * dt)))    # 6
+        bias = self.bias[m] - np.where(small, s.ki * e * dt, 0.0)  # 4
+        w = np.asarray(gyro, float).reshape(self.n, 3)[m] + s.kp * e - bias  # 5
+        self.q[m] = quat.normalize(quat.mul(q, quat.from_rotvec(w * dt)))  # 6
         self.bias[m] = bias
         return self.q

@@ -18,7 +18,7 @@ KINDS = {"complementary": 0, "mahony": 1, "madgwick": 2, "relative": 3}
 
 def hand_tables():
     """Integer tables of the hand model for the kernels."""
-    kind = np.zeros(N_SEGMENTS, np.int64)   # 0: no joint angle (palm), 1: 2-DoF swing, 2: hinge
+    kind = np.zeros(N_SEGMENTS, np.int64)  # 0: no joint angle (palm), 1: 2-DoF swing, 2: hinge
     flex = np.full(N_SEGMENTS, -1, np.int64)
     abd = np.full(N_SEGMENTS, -1, np.int64)
     for s, f, a in joints.SWING:
@@ -26,10 +26,18 @@ def hand_tables():
     for s, f, _ in joints.HINGE:
         kind[s], flex[s] = 2, f
     parent_imu = np.array([JOINT_MAP.index(PARENTS[s]) if PARENTS[s] in JOINT_MAP else -1 for s in JOINT_MAP])
-    return dict(imu_seg=np.array(JOINT_MAP, np.int64), parents=np.array([max(p, 0) for p in PARENTS], np.int64),
-                parent_imu=parent_imu.astype(np.int64),
-                kind=kind, flex=flex, abd=abd, rest=REST.copy(), limits=LIMITS.copy(),
-                pip=np.array(PIP, np.int64), dip=np.array(DIP, np.int64))
+    return dict(
+        imu_seg=np.array(JOINT_MAP, np.int64),
+        parents=np.array([max(p, 0) for p in PARENTS], np.int64),
+        parent_imu=parent_imu.astype(np.int64),
+        kind=kind,
+        flex=flex,
+        abd=abd,
+        rest=REST.copy(),
+        limits=LIMITS.copy(),
+        pip=np.array(PIP, np.int64),
+        dip=np.array(DIP, np.int64),
+    )
 
 
 @njit(cache=True)
@@ -57,8 +65,12 @@ def _swing(w, x, y, z, steps):
         ds = -sa * r02 + ca * r12
         n = math.sqrt(p * p + s * s) + 1e-300
         g1 = (p * dp + s * ds) / n - sa * r11 - ca * r01
-        g2 = ((dp * dp - p * (p - r22) + ds * ds - s * (s + r20)) / n
-              - (p * dp + s * ds) ** 2 / n ** 3 - ca * r11 + sa * r01)
+        g2 = (
+            (dp * dp - p * (p - r22) + ds * ds - s * (s + r20)) / n
+            - (p * dp + s * ds) ** 2 / n**3
+            - ca * r11
+            + sa * r01
+        )
         if g2 < -1e-9:
             a = a - g1 / g2
         else:
@@ -84,13 +96,38 @@ def _relative(g, parents, out):
     out[0] = g[0]
     for s in range(1, g.shape[0]):
         p = parents[s]
-        out[s, 0], out[s, 1], out[s, 2], out[s, 3] = _conj_mul(g[p, 0], g[p, 1], g[p, 2], g[p, 3],
-                                                               g[s, 0], g[s, 1], g[s, 2], g[s, 3])
+        out[s, 0], out[s, 1], out[s, 2], out[s, 3] = _conj_mul(
+            g[p, 0], g[p, 1], g[p, 2], g[p, 3], g[s, 0], g[s, 1], g[s, 2], g[s, 3]
+        )
 
 
 @njit(cache=True)
-def hand_step(seg, fuse, tab_imu_seg, parents, parent_imu, share, min_vis, kind, flex, abd, rest, limits, pip, dip,
-              use_limits, g16, rel, crel, free, angles, quats, psi, bvec, constraint):
+def hand_step(
+    seg,
+    fuse,
+    tab_imu_seg,
+    parents,
+    parent_imu,
+    share,
+    min_vis,
+    kind,
+    flex,
+    abd,
+    rest,
+    limits,
+    pip,
+    dip,
+    use_limits,
+    g16,
+    rel,
+    crel,
+    free,
+    angles,
+    quats,
+    psi,
+    bvec,
+    constraint,
+):
     """Step 6 and the heading corrections of step 7 (host.py) for one frame: seg (12, 4) orientations of the
     IMU segments in the world; writes angles (20,), quats (16, 4), psi (12,), bvec (12, 3) and constraint (12,)."""
     n_seg = g16.shape[0]
@@ -111,8 +148,9 @@ def hand_step(seg, fuse, tab_imu_seg, parents, parent_imu, share, min_vis, kind,
     for s in range(1, n_seg):
         if kind[s] == 0:
             continue
-        w, x, y, z = _conj_mul(rest[s, 0], rest[s, 1], rest[s, 2], rest[s, 3], rel[s, 0], rel[s, 1], rel[s, 2],
-                               rel[s, 3])
+        w, x, y, z = _conj_mul(
+            rest[s, 0], rest[s, 1], rest[s, 2], rest[s, 3], rel[s, 0], rel[s, 1], rel[s, 2], rel[s, 3]
+        )
         if kind[s] == 1:
             f, a = _swing(w, x, y, z, 4)
             free[flex[s]] = f
@@ -130,8 +168,9 @@ def hand_step(seg, fuse, tab_imu_seg, parents, parent_imu, share, min_vis, kind,
         pi = parent_imu[i]
         if pi >= 0 and fuse[i] and fuse[pi]:
             p = parents[s]
-            cw, cx, cy, cz = _mul(g16[p, 0], g16[p, 1], g16[p, 2], g16[p, 3], crel[s, 0], crel[s, 1], crel[s, 2],
-                                  crel[s, 3])
+            cw, cx, cy, cz = _mul(
+                g16[p, 0], g16[p, 1], g16[p, 2], g16[p, 3], crel[s, 0], crel[s, 1], crel[s, 2], crel[s, 3]
+            )
             if kind[s] == 2:
                 ax, ay, az = _rotate(cw, cx, cy, cz, 0.0, 1.0, 0.0)
                 sx, sy, sz = -az * ax, -az * ay, 1.0 - az * az
@@ -156,8 +195,9 @@ def hand_step(seg, fuse, tab_imu_seg, parents, parent_imu, share, min_vis, kind,
         if s == 0:
             constraint[i] = 0.0
         else:
-            dw, dx, dy, dz = _conj_mul(rel[s, 0], rel[s, 1], rel[s, 2], rel[s, 3], crel[s, 0], crel[s, 1],
-                                       crel[s, 2], crel[s, 3])
+            dw, dx, dy, dz = _conj_mul(
+                rel[s, 0], rel[s, 1], rel[s, 2], rel[s, 3], crel[s, 0], crel[s, 1], crel[s, 2], crel[s, 3]
+            )
             constraint[i] = 2.0 * math.atan2(math.sqrt(dx * dx + dy * dy + dz * dz), abs(dw))
     for j in range(free.shape[0]):
         v = free[j]
@@ -171,11 +211,58 @@ def hand_step(seg, fuse, tab_imu_seg, parents, parent_imu, share, min_vis, kind,
 
 
 @njit(cache=True)
-def run(kind_id, q, fbias, buf, head, count, gain, rel, root_q, root_bias, parents, order, fp, rotate_parent,
-        b, still_for, bp, use_gravity, track_bias, C, heading, last_t, minv, heading_rate, heading_bias_rate,
-        max_dt, share, min_vis, tab_imu_seg, tab_parents, tab_parent_imu, tab_kind, tab_flex, tab_abd, tab_rest,
-        tab_limits, tab_pip, tab_dip, use_limits, accel, gyro, t_us, fuse, o_quats, o_angles, o_aerr, o_trust,
-        o_bias, o_constraint, o_heading):
+def run(
+    kind_id,
+    q,
+    fbias,
+    buf,
+    head,
+    count,
+    gain,
+    rel,
+    root_q,
+    root_bias,
+    parents,
+    order,
+    fp,
+    rotate_parent,
+    b,
+    still_for,
+    bp,
+    use_gravity,
+    track_bias,
+    C,
+    heading,
+    last_t,
+    minv,
+    heading_rate,
+    heading_bias_rate,
+    max_dt,
+    share,
+    min_vis,
+    tab_imu_seg,
+    tab_parents,
+    tab_parent_imu,
+    tab_kind,
+    tab_flex,
+    tab_abd,
+    tab_rest,
+    tab_limits,
+    tab_pip,
+    tab_dip,
+    use_limits,
+    accel,
+    gyro,
+    t_us,
+    fuse,
+    o_quats,
+    o_angles,
+    o_aerr,
+    o_trust,
+    o_bias,
+    o_constraint,
+    o_heading,
+):
     """HostFusion._step over T frames; every state array is updated in place. fp: the filter's settings
     (complementary: gain, t1, t2; mahony: kp, ki, t1, t2, integral_limit; madgwick: beta, t1, t2; relative: kp,
     ki, root_kp, root_ki, t1, t2, integral_limit); bp: BiasSettings (ki, still_rate, still_time_s, still_tau_s,
@@ -206,15 +293,35 @@ def run(kind_id, q, fbias, buf, head, count, gain, rel, root_q, root_bias, paren
             for c in range(3):
                 gc[i, c] = gyro[t, i, c] - b[i, c]
         if kind_id == 0:
-            K.complementary_step(q, buf, head, count, gain, srt, scratch, gc, accel[t], dt, fuse[t],
-                                 fp[0], fp[1], fp[2])
+            K.complementary_step(
+                q, buf, head, count, gain, srt, scratch, gc, accel[t], dt, fuse[t], fp[0], fp[1], fp[2]
+            )
         elif kind_id == 1:
             K.mahony_step(q, fbias, gc, accel[t], dt, fuse[t], fp[0], fp[1], fp[2], fp[3], fp[4])
         elif kind_id == 2:
             K.madgwick_step(q, gc, accel[t], dt, fuse[t], fp[0], fp[1], fp[2])
         else:
-            K.relative_step(q, rel, root_q, root_bias, fbias, parents, order, gc, accel[t], dt, fuse[t],
-                            fp[0], fp[1], fp[2], fp[3], fp[4], fp[5], fp[6], rotate_parent)
+            K.relative_step(
+                q,
+                rel,
+                root_q,
+                root_bias,
+                fbias,
+                parents,
+                order,
+                gc,
+                accel[t],
+                dt,
+                fuse[t],
+                fp[0],
+                fp[1],
+                fp[2],
+                fp[3],
+                fp[4],
+                fp[5],
+                fp[6],
+                rotate_parent,
+            )
         if track_bias:  # BiasTracker.update
             for i in range(n):
                 for c in range(3):
@@ -246,29 +353,53 @@ def run(kind_id, q, fbias, buf, head, count, gain, rel, root_q, root_bias, paren
                     b[i, c] = min(max(b[i, c], -bp[4]), bp[4])
         for i in range(n):
             w, x, y, z = _mul(C[i, 0], C[i, 1], C[i, 2], C[i, 3], q[i, 0], q[i, 1], q[i, 2], q[i, 3])
-            seg[i, 0], seg[i, 1], seg[i, 2], seg[i, 3] = _mul(w, x, y, z, minv[i, 0], minv[i, 1], minv[i, 2],
-                                                              minv[i, 3])
-        hand_step(seg, fuse[t], tab_imu_seg, tab_parents, tab_parent_imu, share, min_vis, tab_kind, tab_flex, tab_abd,
-                  tab_rest, tab_limits, tab_pip, tab_dip, use_limits, g16, relq, crel, free, o_angles[t],
-                  o_quats[t], psi, bvec, o_constraint[t])
+            seg[i, 0], seg[i, 1], seg[i, 2], seg[i, 3] = _mul(
+                w, x, y, z, minv[i, 0], minv[i, 1], minv[i, 2], minv[i, 3]
+            )
+        hand_step(
+            seg,
+            fuse[t],
+            tab_imu_seg,
+            tab_parents,
+            tab_parent_imu,
+            share,
+            min_vis,
+            tab_kind,
+            tab_flex,
+            tab_abd,
+            tab_rest,
+            tab_limits,
+            tab_pip,
+            tab_dip,
+            use_limits,
+            g16,
+            relq,
+            crel,
+            free,
+            o_angles[t],
+            o_quats[t],
+            psi,
+            bvec,
+            o_constraint[t],
+        )
         if heading_rate > 0.0:
             for i in range(n):
                 step = heading_rate * dt[i] * psi[i]
-                C[i, 0], C[i, 1], C[i, 2], C[i, 3] = _normalize(*_mul(math.cos(0.5 * step), 0.0, 0.0,
-                                                                      math.sin(0.5 * step), C[i, 0], C[i, 1],
-                                                                      C[i, 2], C[i, 3]))
+                C[i, 0], C[i, 1], C[i, 2], C[i, 3] = _normalize(
+                    *_mul(math.cos(0.5 * step), 0.0, 0.0, math.sin(0.5 * step), C[i, 0], C[i, 1], C[i, 2], C[i, 3])
+                )
                 heading[i] += step
             if track_bias and heading_bias_rate > 0.0:
                 for i in range(n):
                     if fuse[t, i]:
-                        ux, uy, uz = _rotate(q[i, 0], -q[i, 1], -q[i, 2], -q[i, 3], bvec[i, 0], bvec[i, 1],
-                                             bvec[i, 2])
+                        ux, uy, uz = _rotate(q[i, 0], -q[i, 1], -q[i, 2], -q[i, 3], bvec[i, 0], bvec[i, 1], bvec[i, 2])
                         k = heading_bias_rate * dt[i]
                         b[i, 0] -= k * ux
                         b[i, 1] -= k * uy
                         b[i, 2] -= k * uz
         for i in range(n):
             o_trust[t, i] = trust[i]
-            o_bias[t, i] = math.sqrt((b[i, 0] + fbias[i, 0]) ** 2 + (b[i, 1] + fbias[i, 1]) ** 2
-                                     + (b[i, 2] + fbias[i, 2]) ** 2)
+            o_bias[t, i] = math.sqrt(
+                (b[i, 0] + fbias[i, 0]) ** 2 + (b[i, 1] + fbias[i, 1]) ** 2 + (b[i, 2] + fbias[i, 2]) ** 2
+            )
             o_heading[t, i] = heading[i]

@@ -35,11 +35,11 @@ from recorder.protocol.frames import (
     StatusFrame,
 )
 
-FIRST_FRAME_S = 5.0   # no frame at all within this: not a glove
-RAW_WAIT_S = 3.0      # after the set-mode command: only pose frames for this long means the glove refused
-STATUS_WAIT_S = 2.5   # raw frames but no status frame (the glove id) for this long: ask for --glove-id
-STALL_S = 2.0         # a glove that stops sending mid-step
-MARGIN_S = 0.2        # left out at both ends of a step (the hand settling), as emulated.phase
+FIRST_FRAME_S = 5.0  # no frame at all within this: not a glove
+RAW_WAIT_S = 3.0  # after the set-mode command: only pose frames for this long means the glove refused
+STATUS_WAIT_S = 2.5  # raw frames but no status frame (the glove id) for this long: ask for --glove-id
+STALL_S = 2.0  # a glove that stops sending mid-step
+MARGIN_S = 0.2  # left out at both ends of a step (the hand settling), as emulated.phase
 
 
 @dataclass(frozen=True)
@@ -55,41 +55,65 @@ def _seconds(name: str) -> float:
 
 
 STEPS = (
-    Step("still", _seconds("still"), "Rest the hand flat on the table, palm down, fingers straight and together, "
-                                     "thumb beside the index. Do not move."),
-    Step("flex", _seconds("flex"), "Flex all fingers and the thumb twice, slowly and as far as comfortable "
-                                   "(knuckles and finger joints, no spreading), back to flat."),
-    Step("tilt", _seconds("tilt"), "Tilt the hand forward, back, left and right by about 45 degrees, holding "
-                                   "each tilt for a second."),
+    Step(
+        "still",
+        _seconds("still"),
+        "Rest the hand flat on the table, palm down, fingers straight and together, "
+        "thumb beside the index. Do not move.",
+    ),
+    Step(
+        "flex",
+        _seconds("flex"),
+        "Flex all fingers and the thumb twice, slowly and as far as comfortable "
+        "(knuckles and finger joints, no spreading), back to flat.",
+    ),
+    Step(
+        "tilt",
+        _seconds("tilt"),
+        "Tilt the hand forward, back, left and right by about 45 degrees, holding each tilt for a second.",
+    ),
     Step("rest", _seconds("rest"), "Rest the hand flat again, as in step 1 (the reference pose)."),
 )
 
 
 @dataclass
 class Result:
-    calibration: cal.GloveCalibration   # its quality says how it went (attempts, frames per step, checks)
+    calibration: cal.GloveCalibration  # its quality says how it went (attempts, frames per step, checks)
     path: Path
 
 
 class Calibrator:
     """One run of the procedure on ``glove`` (emulator, serial:PORT, a device path, udp:PORT or mcap:FILE)."""
 
-    def __init__(self, glove: str, *, glove_id: int | None = None, folder=None, config=None,
-                 interactive: bool | None = None, attempts: int = 3, realtime: bool = False, seed: int = 0,
-                 out=sys.stderr):
+    def __init__(
+        self,
+        glove: str,
+        *,
+        glove_id: int | None = None,
+        folder=None,
+        config=None,
+        interactive: bool | None = None,
+        attempts: int = 3,
+        realtime: bool = False,
+        seed: int = 0,
+        out=sys.stderr,
+    ):
         self.spec = glove
         self.glove_id = glove_id
         self.folder = calibration_folder(folder)
         self.config = load_config(config)
         self.emulated = glove == "emulator"
-        self.interactive = (not self.emulated and sys.stdin is not None and sys.stdin.isatty()) \
-            if interactive is None else bool(interactive and not self.emulated)
+        self.interactive = (
+            (not self.emulated and sys.stdin is not None and sys.stdin.isatty())
+            if interactive is None
+            else bool(interactive and not self.emulated)
+        )
         self.attempts = 1 if self.emulated else max(1, int(attempts))  # the emulated wearer does not repeat
         self.realtime = realtime
         self.seed = seed
         self.out = out
         self.emulator = None
-        self._pending: list = []   # frames read ahead and not used yet
+        self._pending: list = []  # frames read ahead and not used yet
 
     # ------------------------------------------------------------ the run
     def run(self) -> Result:
@@ -110,8 +134,10 @@ class Calibrator:
                         break
                     except cal.CalibrationRefused as exc:
                         if attempts >= self.attempts:
-                            raise GloverecError(f"calibration refused: {exc.reason}; hold the hand flat and "
-                                                f"still for the whole step ({attempts} attempt(s))") from None
+                            raise GloverecError(
+                                f"calibration refused: {exc.reason}; hold the hand flat and "
+                                f"still for the whole step ({attempts} attempt(s))"
+                            ) from None
                         self._say(f"refused: {exc.reason}. Again:")
         finally:
             self.close()
@@ -137,15 +163,17 @@ class Calibrator:
         except cal.CalibrationRefused:
             rest_still = False
         up1, up4 = (m / np.linalg.norm(m, axis=1, keepdims=True) for m in (a1.mean(0), a4.mean(0)))
-        calibration.quality.update({
-            "still_attempts": attempts,
-            "rest_still": rest_still,
-            # how far the gyro bias moved between steps 1 and 4 (warming up), and how far each IMU's gravity
-            # direction is from step 1's in step 4 (the hand back in the reference pose: a few degrees at most)
-            "rest_bias_change_dps": float(np.degrees(np.max(np.linalg.norm(g4.mean(0) - g1.mean(0), axis=1)))),
-            "rest_pose_change_deg": float(np.degrees(np.max(np.arccos(np.clip(np.sum(up1 * up4, 1), -1, 1))))),
-            "frames": {s.name: len(recs[s.name]) for s in STEPS},
-        })
+        calibration.quality.update(
+            {
+                "still_attempts": attempts,
+                "rest_still": rest_still,
+                # how far the gyro bias moved between steps 1 and 4 (warming up), and how far each IMU's gravity
+                # direction is from step 1's in step 4 (the hand back in the reference pose: a few degrees at most)
+                "rest_bias_change_dps": float(np.degrees(np.max(np.linalg.norm(g4.mean(0) - g1.mean(0), axis=1)))),
+                "rest_pose_change_deg": float(np.degrees(np.max(np.arccos(np.clip(np.sum(up1 * up4, 1), -1, 1))))),
+                "frames": {s.name: len(recs[s.name]) for s in STEPS},
+            }
+        )
         return calibration
 
     # ------------------------------------------------------------ the glove
@@ -197,8 +225,9 @@ class Calibrator:
             if self.source.finished and f is None:
                 break
             if got_frame is None and now - t0 > FIRST_FRAME_S:
-                raise GloverecError(f"no glove frames from {name} in {FIRST_FRAME_S:.0f} s: is it connected and "
-                                    "sending?")
+                raise GloverecError(
+                    f"no glove frames from {name} in {FIRST_FRAME_S:.0f} s: is it connected and sending?"
+                )
             if got_raw is None and got_frame is not None and now - got_frame > RAW_WAIT_S:
                 break
             if got_raw is not None and now - got_raw > STATUS_WAIT_S / 2 and not status_asked:
@@ -207,8 +236,10 @@ class Calibrator:
                 break
         if not raw:
             what = f"{poses} fused pose frames" if poses else "no raw frames"
-            raise GloverecError(f"{name} sends {what} and did not switch to raw mode: calibration needs the raw "
-                                "IMU frames of a glove that takes the set-mode command")
+            raise GloverecError(
+                f"{name} sends {what} and did not switch to raw mode: calibration needs the raw "
+                "IMU frames of a glove that takes the set-mode command"
+            )
         raise GloverecError(f"{name} sent no status frame, so its glove id is unknown: pass --glove-id HEX")
 
     def _command(self, code: CommandCode, arg: int = 0) -> bool:
@@ -296,9 +327,13 @@ class _Progress:
             from rich.console import Console
             from rich.progress import BarColumn, Progress, TextColumn
 
-            self.bar = Progress(TextColumn("{task.description}"), BarColumn(),
-                                TextColumn("{task.completed:4.1f} / {task.total:g} s"),
-                                console=Console(file=out), transient=False)
+            self.bar = Progress(
+                TextColumn("{task.description}"),
+                BarColumn(),
+                TextColumn("{task.completed:4.1f} / {task.total:g} s"),
+                console=Console(file=out),
+                transient=False,
+            )
             self.task = self.bar.add_task(label, total=seconds)
             self.bar.start()
 
@@ -317,33 +352,43 @@ class _Progress:
 
 # ---------------------------------------------------------------- the report
 
+
 def summary(result: Result) -> dict:
     """What `gloverec calibrate --json` prints."""
     c = result.calibration
-    return {"glove_id": c.glove_id, "glove_id_hex": f"{c.glove_id:08x}", "path": str(result.path),
-            "created": c.created, "version": c.version,
-            "imus": [SEGMENTS[s] for s in JOINT_MAP],
-            "gyro_bias_dps": np.round(np.degrees(c.gyro_bias), 4).tolist(),
-            "accel_offset_mg": np.round(c.accel_offset * 1e3, 2).tolist(),
-            "flexion_axis_ok": list(c.quality.get("flexion_axis_ok", [False] * N_IMUS)),
-            "accel_offset_ok": list(c.quality.get("accel_offset_ok", [False] * N_IMUS)),
-            "quality": {k: v for k, v in c.quality.items() if k not in ("flexion_axis_ok", "accel_offset_ok")}}
+    return {
+        "glove_id": c.glove_id,
+        "glove_id_hex": f"{c.glove_id:08x}",
+        "path": str(result.path),
+        "created": c.created,
+        "version": c.version,
+        "imus": [SEGMENTS[s] for s in JOINT_MAP],
+        "gyro_bias_dps": np.round(np.degrees(c.gyro_bias), 4).tolist(),
+        "accel_offset_mg": np.round(c.accel_offset * 1e3, 2).tolist(),
+        "flexion_axis_ok": list(c.quality.get("flexion_axis_ok", [False] * N_IMUS)),
+        "accel_offset_ok": list(c.quality.get("accel_offset_ok", [False] * N_IMUS)),
+        "quality": {k: v for k, v in c.quality.items() if k not in ("flexion_axis_ok", "accel_offset_ok")},
+    }
 
 
 def report(result: Result) -> str:
     """One screen: gyro bias per IMU, which IMUs got a flexion axis and an accelerometer offset, quality."""
     s = summary(result)
     q = s["quality"]
-    lines = [f"glove {s['glove_id_hex']} calibrated, saved to {s['path']}",
-             f"{'IMU':>3}  {'segment':<18} {'gyro bias deg/s (x y z)':>26}  {'flexion axis':<12} "
-             f"{'accel offset mg (x y z)':>24}"]
+    lines = [
+        f"glove {s['glove_id_hex']} calibrated, saved to {s['path']}",
+        f"{'IMU':>3}  {'segment':<18} {'gyro bias deg/s (x y z)':>26}  {'flexion axis':<12} "
+        f"{'accel offset mg (x y z)':>24}",
+    ]
     for i, name in enumerate(s["imus"]):
         b = " ".join(f"{v:+7.2f}" for v in s["gyro_bias_dps"][i])
         off = " ".join(f"{v:+6.1f}" for v in s["accel_offset_mg"][i]) if s["accel_offset_ok"][i] else "-"
         flex = "yes" if s["flexion_axis_ok"][i] else "-"
         lines.append(f"{i:>3}  {name:<18} {b:>26}  {flex:<12} {off:>24}")
-    lines.append(f"flexion axes {sum(s['flexion_axis_ok'])}/{N_IMUS - 1} (not the palm), accelerometer offsets "
-                 f"{sum(s['accel_offset_ok'])}/{N_IMUS}; step 1 took {q['still_attempts']} attempt(s); "
-                 f"step 4 {'still' if q['rest_still'] else 'NOT still'}, gyro bias moved "
-                 f"{q['rest_bias_change_dps']:.2f} deg/s, pose {q['rest_pose_change_deg']:.1f} deg from step 1")
+    lines.append(
+        f"flexion axes {sum(s['flexion_axis_ok'])}/{N_IMUS - 1} (not the palm), accelerometer offsets "
+        f"{sum(s['accel_offset_ok'])}/{N_IMUS}; step 1 took {q['still_attempts']} attempt(s); "
+        f"step 4 {'still' if q['rest_still'] else 'NOT still'}, gyro bias moved "
+        f"{q['rest_bias_change_dps']:.2f} deg/s, pose {q['rest_pose_change_deg']:.1f} deg from step 1"
+    )
     return "\n".join(lines)

@@ -13,8 +13,8 @@ from recorder.fusion.relative import RelativeFilter, RelativeSettings
 
 FILTERS = {
     "complementary": (ComplementaryFilter, ComplementarySettings),  # thesis §3.5, the firmware's filter
-    "mahony": (MahonyFilter, MahonySettings),                       # Santaera et al. Algorithm 1
-    "relative": (RelativeFilter, RelativeSettings),                 # Santaera et al. Algorithm 2
+    "mahony": (MahonyFilter, MahonySettings),  # Santaera et al. Algorithm 1
+    "relative": (RelativeFilter, RelativeSettings),  # Santaera et al. Algorithm 2
     "madgwick": (MadgwickFilter, MadgwickSettings),
 }
 
@@ -27,8 +27,9 @@ def settings_for(name: str, **settings):
     known = {f.name for f in dataclasses.fields(cls)}
     unknown = sorted(set(settings) - known)
     if unknown:
-        raise ValueError(f"unknown setting(s) {', '.join(unknown)} for filter {name!r}; "
-                         f"valid settings: {', '.join(sorted(known))}")
+        raise ValueError(
+            f"unknown setting(s) {', '.join(unknown)} for filter {name!r}; valid settings: {', '.join(sorted(known))}"
+        )
     return cls(**settings)
 
 

@@ -37,10 +37,10 @@ def imu_parents(joint_map=JOINT_MAP) -> tuple[int, ...]:
 @dataclass
 class RelativeSettings:
     kp: float = 0.5
-    ki: float = 0.0             # the relative rate's bias changes as the joint moves (gyro_c - R^T gyro_p)
-    threshold1: float = 0.1     # Kortier eq. 27 on the pair's magnitude difference, in g
+    ki: float = 0.0  # the relative rate's bias changes as the joint moves (gyro_c - R^T gyro_p)
+    threshold1: float = 0.1  # Kortier eq. 27 on the pair's magnitude difference, in g
     threshold2: float = 0.2
-    root_kp: float = 0.5        # the root's Algorithm 1
+    root_kp: float = 0.5  # the root's Algorithm 1
     root_ki: float = 0.002
     integral_limit: float = 0.1
     rotate_parent_rate: bool = True
@@ -52,12 +52,14 @@ class RelativeFilter(Filter):
     def __init__(self, n: int = 12, settings: RelativeSettings | None = None, parents=None):
         super().__init__(n)
         self.settings = s = settings or RelativeSettings()
-        self.parents = np.array(imu_parents() if parents is None and n == len(JOINT_MAP)
-                                else (parents if parents is not None else (-1,) * n))
+        self.parents = np.array(
+            imu_parents()
+            if parents is None and n == len(JOINT_MAP)
+            else (parents if parents is not None else (-1,) * n)
+        )
         self.order = _topological(self.parents)
         self.child = np.flatnonzero(self.parents >= 0)
-        self.root = MahonyFilter(n, MahonySettings(s.root_kp, s.root_ki, s.threshold1, s.threshold2,
-                                                   s.integral_limit))
+        self.root = MahonyFilter(n, MahonySettings(s.root_kp, s.root_ki, s.threshold1, s.threshold2, s.integral_limit))
         self.rel = np.tile(quat.IDENTITY, (n, 1))
 
     def reset(self, accel, mask=None) -> None:
@@ -86,15 +88,15 @@ class RelativeFilter(Filter):
         np_ = np.linalg.norm(ap, axis=1, keepdims=True)
         trust = gain_factor(1.0 + np.abs(nc - np_)[:, 0], s.threshold1, s.threshold2)[:, None]
         ok = (trust > 0.0) & (nc > 0.0) & (np_ > 0.0)
-        ac = np.where(ok, ac / np.where(ok, nc, 1.0), 0.0)                      # 1
+        ac = np.where(ok, ac / np.where(ok, nc, 1.0), 0.0)  # 1
         ap = np.where(ok, ap / np.where(ok, np_, 1.0), 0.0)
         rt = quat.conj(r)
-        d = quat.rotate(rt, ap)                                                 # 2
-        e = trust * np.cross(ac, d)                                             # 3
+        d = quat.rotate(rt, ap)  # 2
+        e = trust * np.cross(ac, d)  # 3
         small = np.linalg.norm(e, axis=1, keepdims=True) < s.integral_limit
-        bias = self.bias[c] - np.where(small, s.ki * e * dt[c, None], 0.0)      # 4
+        bias = self.bias[c] - np.where(small, s.ki * e * dt[c, None], 0.0)  # 4
         parent_rate = quat.rotate(rt, gyro[p]) if s.rotate_parent_rate else gyro[p]
-        w = gyro[c] - parent_rate + s.kp * e - bias                             # 5, 6
+        w = gyro[c] - parent_rate + s.kp * e - bias  # 5, 6
         self.rel[c] = quat.normalize(quat.mul(r, quat.from_rotvec(w * dt[c, None])))
         self.bias[c] = bias
         self._compose()
@@ -107,8 +109,11 @@ class RelativeFilter(Filter):
         self.bias[self.parents < 0] = self.root.bias[self.parents < 0]
 
     def state(self) -> dict:
-        return super().state() | {"rel": self.rel.copy(), "root_q": self.root.q.copy(),
-                                  "root_bias": self.root.bias.copy()}
+        return super().state() | {
+            "rel": self.rel.copy(),
+            "root_q": self.root.q.copy(),
+            "root_bias": self.root.bias.copy(),
+        }
 
     def load_state(self, state: dict) -> None:
         state = dict(state)

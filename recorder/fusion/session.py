@@ -25,10 +25,10 @@ from recorder.protocol.frames import EventCode, EventFrame, PoseCompactFrame, Po
 
 CONFIG = Path(__file__).resolve().parents[2] / "configs" / "fusion" / "default.yaml"
 DIR_ENV = "GLOVEREC_CALIBRATION_DIR"
-DEFAULT_DIR = Path("datasets") / "calibration"   # relative to the working directory, like datasets/recordings
+DEFAULT_DIR = Path("datasets") / "calibration"  # relative to the working directory, like datasets/recordings
 RECORD_FILE = Path("meta") / "gloverec" / "calibration.json"
-REST_S = 1.0          # the hand rests this long at the start of a session: fusion starts from it
-STATUS_WAIT_S = 1.5   # after the rest, how long raw frames wait for a status frame (the glove id; 1 Hz)
+REST_S = 1.0  # the hand rests this long at the start of a session: fusion starts from it
+STATUS_WAIT_S = 1.5  # after the rest, how long raw frames wait for a status frame (the glove id; 1 Hz)
 
 
 def calibration_folder(folder=None) -> Path:
@@ -59,16 +59,20 @@ def read_calibration(path, glove_id: int | None = None) -> GloveCalibration:
         calibration = GloveCalibration.from_json(text)
         _check_shapes(calibration)
     except (ValueError, KeyError, TypeError, AttributeError) as exc:
-        raise GloverecError(f"bad calibration file {path}: {str(exc).splitlines()[0] or type(exc).__name__}") \
-            from None
+        raise GloverecError(f"bad calibration file {path}: {str(exc).splitlines()[0] or type(exc).__name__}") from None
     if glove_id is not None and calibration.glove_id != glove_id:
         raise GloverecError(f"{path} holds the calibration of glove {calibration.glove_id:08x}, not {glove_id:08x}")
     return calibration
 
 
 def _check_shapes(c: GloveCalibration) -> None:
-    want = {"gyro_bias": (N_IMUS, 3), "gyro_bias_temp_c": (N_IMUS,), "accel_offset": (N_IMUS, 3),
-            "mounts": (N_IMUS, 4), "reference_angles": (N_JOINTS,)}
+    want = {
+        "gyro_bias": (N_IMUS, 3),
+        "gyro_bias_temp_c": (N_IMUS,),
+        "accel_offset": (N_IMUS, 3),
+        "mounts": (N_IMUS, 4),
+        "reference_angles": (N_JOINTS,),
+    }
     for name, shape in want.items():
         if np.shape(getattr(c, name)) != shape:
             raise ValueError(f"{name} has shape {np.shape(getattr(c, name))}, expected {shape}")
@@ -98,13 +102,24 @@ def fusion_record(fusion: HostFusion | None, glove_id: int | None = None) -> dic
     config and whether the host fused (False: the glove sent fused poses; no calibration applies). Take it
     before ``start``, which refreshes the gyro bias from the rest."""
     if fusion is None:
-        return {"glove_id": glove_id, "calibrated": False, "calibration": None, "fusion_config": None,
-                "host_fusion": False, "rest_angles": None}
+        return {
+            "glove_id": glove_id,
+            "calibrated": False,
+            "calibration": None,
+            "fusion_config": None,
+            "host_fusion": False,
+            "rest_angles": None,
+        }
     calibrated = bool(getattr(fusion, "calibrated", True))
     rest = None if fusion.rest_angles is None else np.asarray(fusion.rest_angles, float).tolist()
-    return {"glove_id": int(fusion.calibration.glove_id), "calibrated": calibrated,
-            "calibration": json.loads(fusion.calibration.to_json()) if calibrated else None,
-            "fusion_config": dataclasses.asdict(fusion.config), "host_fusion": True, "rest_angles": rest}
+    return {
+        "glove_id": int(fusion.calibration.glove_id),
+        "calibrated": calibrated,
+        "calibration": json.loads(fusion.calibration.to_json()) if calibrated else None,
+        "fusion_config": dataclasses.asdict(fusion.config),
+        "host_fusion": True,
+        "rest_angles": rest,
+    }
 
 
 def fusion_from_record(record: dict, source: str = "the record") -> HostFusion | None:
@@ -119,8 +134,7 @@ def fusion_from_record(record: dict, source: str = "the record") -> HostFusion |
         else:
             calibration = GloveCalibration(glove_id=int(record["glove_id"]))
     except (ValueError, KeyError, TypeError, AttributeError) as exc:
-        raise GloverecError(f"bad calibration in {source}: {str(exc).splitlines()[0] or type(exc).__name__}") \
-            from None
+        raise GloverecError(f"bad calibration in {source}: {str(exc).splitlines()[0] or type(exc).__name__}") from None
     fusion = HostFusion(config, calibration)
     fusion.calibrated = bool(record.get("calibrated"))
     if record.get("rest_angles") is not None:
@@ -152,18 +166,18 @@ class SessionFusion:
         self.config_path = config_path
         self.rest_s = float(rest_s)
         self.glove_id: int | None = None
-        self.rest_angles = None           # the pose the hand holds at start and reset (None: the reference pose)
+        self.rest_angles = None  # the pose the hand holds at start and reset (None: the reference pose)
         self.fusion: HostFusion | None = None
-        self.host: bool | None = None     # True: raw frames, fused here; False: poses from the glove
+        self.host: bool | None = None  # True: raw frames, fused here; False: poses from the glove
         self.record: dict | None = None
         self.started = False
-        self.resets = 0                   # reference poses re-taken (button or key)
+        self.resets = 0  # reference poses re-taken (button or key)
         self._rest: list[RawFrame] = []
         self._listeners: list = []
         self._reset_requested = False
 
     @classmethod
-    def from_record(cls, record: dict, source: str = "the record") -> "SessionFusion":
+    def from_record(cls, record: dict, source: str = "the record") -> SessionFusion:
         """Fuse as a recording did (its calibration.json or its log's ``calibration``): `gloverec rerecord`."""
         s = cls()
         s.glove_id = record.get("glove_id")
@@ -192,12 +206,16 @@ class SessionFusion:
     def keep_in(self, folder, say=None) -> None:
         """Keep the record in ``folder``/meta/gloverec/calibration.json (a dataset's working copy); ``say`` gets
         a warning line when the host fuses without a saved calibration."""
+
         def keep(record: dict) -> None:
             write_record(folder, record)
             if say is not None and record.get("host_fusion") and not record.get("calibrated"):
                 where = getattr(self.fusion, "calibration_path", None)
-                say(f"warning: glove {record.get('glove_id') or 0:08x} has no saved calibration"
-                    f"{f' ({where} not found)' if where else ''}: fusing uncalibrated; run `gloverec calibrate`")
+                say(
+                    f"warning: glove {record.get('glove_id') or 0:08x} has no saved calibration"
+                    f"{f' ({where} not found)' if where else ''}: fusing uncalibrated; run `gloverec calibrate`"
+                )
+
         self.on_record(keep)
 
     def request_reset(self) -> None:
@@ -231,14 +249,13 @@ class SessionFusion:
             return self.fusion.process(frame)
         self._rest.append(frame)
         span = ((frame.t_us - self._rest[0].t_us) & 0xFFFFFFFF) * 1e-6
-        if span < self.rest_s or (self.glove_id is None and self.fusion is None
-                                  and span < self.rest_s + STATUS_WAIT_S):
+        if span < self.rest_s or (self.glove_id is None and self.fusion is None and span < self.rest_s + STATUS_WAIT_S):
             return None
         if self.fusion is None or not self.host:
             self._decide(raw=True)
         rest = [f for f in self._rest if ((f.t_us - self._rest[0].t_us) & 0xFFFFFFFF) * 1e-6 <= self.rest_s]
         self.fusion.start(rest)
-        for f in self._rest[len(rest):]:  # frames that waited for the glove id: fused, not shown
+        for f in self._rest[len(rest) :]:  # frames that waited for the glove id: fused, not shown
             self.fusion.process(f)
         self.started, self._rest, self._reset_requested = True, [], False
         return None

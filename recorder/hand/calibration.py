@@ -37,12 +37,12 @@ class CalibrationRefused(ValueError):
         self.imus = tuple(int(i) for i in imus)
 
 
-@dataclass
+@dataclass(frozen=True)
 class StillnessSettings:
-    max_gyro_std: float = 0.02     # rad/s per axis (about 1 deg/s; MPU9250 noise at 1 kHz is 0.004)
-    max_accel_std: float = 0.02    # g per axis
+    max_gyro_std: float = 0.02  # rad/s per axis (about 1 deg/s; MPU9250 noise at 1 kHz is 0.004)
+    max_accel_std: float = 0.02  # g per axis
     max_accel_drift: float = 0.02  # g: mean of the first third vs the last third of the window
-    max_bias: float = 0.175        # rad/s: a larger mean is a slow turn, not a bias (datasheet +-5 deg/s)
+    max_bias: float = 0.175  # rad/s: a larger mean is a slow turn, not a bias (datasheet +-5 deg/s)
     max_gravity_error: float = 0.1  # g: | |a| - 1 | of the mean
 
 
@@ -54,7 +54,7 @@ class GloveCalibration:
     version: int = VERSION
     created: str = ""
     joint_map: tuple = JOINT_MAP
-    gyro_bias: np.ndarray = field(default_factory=lambda: np.zeros((N_IMUS, 3)))   # rad/s, eq. 3.20
+    gyro_bias: np.ndarray = field(default_factory=lambda: np.zeros((N_IMUS, 3)))  # rad/s, eq. 3.20
     gyro_bias_temp_c: np.ndarray = field(default_factory=lambda: np.full(N_IMUS, np.nan))
     accel_offset: np.ndarray = field(default_factory=lambda: np.zeros((N_IMUS, 3)))  # g, subtracted
     mounts: np.ndarray = field(default_factory=lambda: np.tile(quat.IDENTITY, (N_IMUS, 1)))  # IMU = seg (x) mount
@@ -70,13 +70,17 @@ class GloveCalibration:
         return json.dumps(d, indent=1)
 
     @classmethod
-    def from_json(cls, text: str) -> "GloveCalibration":
+    def from_json(cls, text: str) -> GloveCalibration:
         d = json.loads(text)
         version = d.get("version")
         if version != VERSION:
             raise ValueError(f"calibration version {version!r} is not supported (this is version {VERSION})")
-        out = cls(glove_id=int(d["glove_id"]), created=d.get("created", ""), joint_map=tuple(d["joint_map"]),
-                  quality=d.get("quality", {}))
+        out = cls(
+            glove_id=int(d["glove_id"]),
+            created=d.get("created", ""),
+            joint_map=tuple(d["joint_map"]),
+            quality=d.get("quality", {}),
+        )
         for k in ("gyro_bias", "gyro_bias_temp_c", "accel_offset", "mounts", "reference_angles"):
             setattr(out, k, np.array(d[k], dtype=float))
         return out
@@ -93,7 +97,7 @@ class GloveCalibration:
         return p
 
     @classmethod
-    def load(cls, folder, glove_id: int) -> "GloveCalibration":
+    def load(cls, folder, glove_id: int) -> GloveCalibration:
         return cls.from_json(cls(glove_id=glove_id).path(folder).read_text())
 
 
@@ -109,15 +113,18 @@ def check_still(gyro, accel, settings: StillnessSettings = StillnessSettings()) 
         ("not finite", ~np.all(np.isfinite(g), axis=(0, 2)) | ~np.all(np.isfinite(a), axis=(0, 2))),
         ("gyro spread", np.nanmax(np.nanstd(g, axis=0), axis=1) > s.max_gyro_std),
         ("accelerometer spread", np.nanmax(np.nanstd(a, axis=0), axis=1) > s.max_accel_std),
-        ("accelerometer drift", np.nanmax(np.abs(np.nanmean(a[:third], 0) - np.nanmean(a[-third:], 0)), 1)
-         > s.max_accel_drift),
+        (
+            "accelerometer drift",
+            np.nanmax(np.abs(np.nanmean(a[:third], 0) - np.nanmean(a[-third:], 0)), 1) > s.max_accel_drift,
+        ),
         ("turning", np.linalg.norm(np.nanmean(g, 0), axis=1) > s.max_bias),
         ("no gravity", np.abs(np.linalg.norm(np.nanmean(a, 0), axis=1) - 1.0) > s.max_gravity_error),
     )
     for reason, bad in checks:
         if np.any(bad):
-            raise CalibrationRefused(f"the hand moved: {reason} (IMUs {np.flatnonzero(bad).tolist()})",
-                                     np.flatnonzero(bad))
+            raise CalibrationRefused(
+                f"the hand moved: {reason} (IMUs {np.flatnonzero(bad).tolist()})", np.flatnonzero(bad)
+            )
 
 
 def gyro_bias(gyro, accel, settings: StillnessSettings = StillnessSettings()) -> np.ndarray:
@@ -138,8 +145,9 @@ def integrate(gyro, dt) -> np.ndarray:
     return out
 
 
-def accel_offsets(gyro, accel, dt, max_rate: float = 0.1, max_gravity_error: float = 0.15,
-                  min_spread: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
+def accel_offsets(
+    gyro, accel, dt, max_rate: float = 0.1, max_gravity_error: float = 0.15, min_spread: float = 0.1
+) -> tuple[np.ndarray, np.ndarray]:
     """Accelerometer offsets (n, 3) g from a sequence with the hand held in several tilts (procedure step 3).
 
     gyro (T, n, 3) rad/s with its bias removed, accel (T, n, 3) g. Over the quasi-static samples (|gyro| <
@@ -213,11 +221,13 @@ def align(still_accel, flex_axes=None, reference_angles=None) -> np.ndarray:
 
 def _triad(u1, u2, v1, v2) -> np.ndarray:
     """Rotation taking u1 exactly onto v1 and u2 as close as possible onto v2."""
+
     def frame(a, b):
         a = a / np.linalg.norm(a)
         c = np.cross(a, b)
         c = c / np.linalg.norm(c)
         return np.stack((a, c, np.cross(a, c)), axis=1)
+
     m = frame(v1, v2) @ frame(u1, u2).T
     return _quat_from_matrix(m)
 

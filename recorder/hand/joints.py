@@ -32,11 +32,15 @@ from recorder.hand.kinematics import (
 from recorder.hand.skeleton import FINGER_SEGMENTS, FINGERS, N_SEGMENTS
 
 # (segment, flexion joint, abduction joint or -1): every joint of the model, by the segment it moves.
-SWING = tuple([(FINGER_SEGMENTS["thumb"][0], 0, 1)]
-              + [(FINGER_SEGMENTS[f][0], 4 + 4 * k, 5 + 4 * k) for k, f in enumerate(FINGERS[1:])])
-HINGE = tuple([(FINGER_SEGMENTS["thumb"][1], 2, -1), (FINGER_SEGMENTS["thumb"][2], 3, -1)]
-              + [(FINGER_SEGMENTS[f][1], 6 + 4 * k, -1) for k, f in enumerate(FINGERS[1:])]
-              + [(FINGER_SEGMENTS[f][2], 7 + 4 * k, -1) for k, f in enumerate(FINGERS[1:])])
+SWING = tuple(
+    [(FINGER_SEGMENTS["thumb"][0], 0, 1)]
+    + [(FINGER_SEGMENTS[f][0], 4 + 4 * k, 5 + 4 * k) for k, f in enumerate(FINGERS[1:])]
+)
+HINGE = tuple(
+    [(FINGER_SEGMENTS["thumb"][1], 2, -1), (FINGER_SEGMENTS["thumb"][2], 3, -1)]
+    + [(FINGER_SEGMENTS[f][1], 6 + 4 * k, -1) for k, f in enumerate(FINGERS[1:])]
+    + [(FINGER_SEGMENTS[f][2], 7 + 4 * k, -1) for k, f in enumerate(FINGERS[1:])]
+)
 NEWTON_STEPS = 4
 
 
@@ -44,9 +48,14 @@ def matrix_terms(q):
     """The rotation matrix entries of unit quats (..., 4) that the projections use, as a dict."""
     w, x, y, z = np.moveaxis(np.asarray(q, float), -1, 0)
     return {
-        "00": 1 - 2 * (y * y + z * z), "01": 2 * (x * y - w * z), "02": 2 * (x * z + w * y),
-        "10": 2 * (x * y + w * z), "11": 1 - 2 * (x * x + z * z), "12": 2 * (y * z - w * x),
-        "20": 2 * (x * z - w * y), "22": 1 - 2 * (x * x + y * y),
+        "00": 1 - 2 * (y * y + z * z),
+        "01": 2 * (x * y - w * z),
+        "02": 2 * (x * z + w * y),
+        "10": 2 * (x * y + w * z),
+        "11": 1 - 2 * (x * x + z * z),
+        "12": 2 * (y * z - w * x),
+        "20": 2 * (x * z - w * y),
+        "22": 1 - 2 * (x * x + y * y),
     }
 
 
@@ -72,8 +81,12 @@ def swing_angles(q) -> tuple[np.ndarray, np.ndarray]:
         ds = -sa * r["02"] + ca * r["12"]
         n = np.sqrt(p * p + s * s) + 1e-300
         g1 = (p * dp + s * ds) / n - sa * r["11"] - ca * r["01"]
-        g2 = ((dp * dp - p * (p - r["22"]) + ds * ds - s * (s + r["20"])) / n
-              - (p * dp + s * ds) ** 2 / n ** 3 - ca * r["11"] + sa * r["01"])
+        g2 = (
+            (dp * dp - p * (p - r["22"]) + ds * ds - s * (s + r["20"])) / n
+            - (p * dp + s * ds) ** 2 / n**3
+            - ca * r["11"]
+            + sa * r["01"]
+        )
         a = a - np.where(g2 < -1e-9, g1 / np.where(g2 < -1e-9, g2, -1.0), -0.5 * g1)
     ca, sa = np.cos(a), np.sin(a)
     f = np.arctan2(ca * r["02"] + sa * r["12"] - r["20"], ca * r["00"] + sa * r["10"] + r["22"])
@@ -119,5 +132,16 @@ def twist(rel_quats) -> np.ndarray:
     return quat.angle_between(rel, constrained_relative(joint_angles(rel, limits=False, interpolate=False)))
 
 
-__all__ = ["DIP", "HINGE", "JOINTS", "N_SEGMENTS", "SWING", "constrained_relative", "fingertips", "hinge_angle",
-           "joint_angles", "swing_angles", "twist"]
+__all__ = [
+    "DIP",
+    "HINGE",
+    "JOINTS",
+    "N_SEGMENTS",
+    "SWING",
+    "constrained_relative",
+    "fingertips",
+    "hinge_angle",
+    "joint_angles",
+    "swing_angles",
+    "twist",
+]

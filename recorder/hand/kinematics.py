@@ -25,21 +25,39 @@ from dataclasses import dataclass
 import numpy as np
 
 from recorder import quat
-from recorder.hand.skeleton import FINGERS, FINGER_SEGMENTS, N_SEGMENTS, PARENTS
+from recorder.hand.skeleton import FINGER_SEGMENTS, FINGERS, N_SEGMENTS, PARENTS
 
 JOINTS = (
-    "thumb_cmc_flex", "thumb_cmc_abd", "thumb_mcp", "thumb_ip",
+    "thumb_cmc_flex",
+    "thumb_cmc_abd",
+    "thumb_mcp",
+    "thumb_ip",
     *(f"{f}_{j}" for f in FINGERS[1:] for j in ("mcp_flex", "mcp_abd", "pip", "dip")),
 )
 N_JOINTS = len(JOINTS)
 
 # Anatomical ranges in degrees (typical active adult ranges; abduction positive toward the thumb side).
 _LIMITS_DEG = {
-    "thumb_cmc_flex": (-20, 50), "thumb_cmc_abd": (0, 70), "thumb_mcp": (-10, 60), "thumb_ip": (-15, 80),
-    "index_mcp_flex": (-20, 90), "index_mcp_abd": (-25, 25), "index_pip": (0, 110), "index_dip": (0, 70),
-    "middle_mcp_flex": (-20, 90), "middle_mcp_abd": (-20, 20), "middle_pip": (0, 110), "middle_dip": (0, 70),
-    "ring_mcp_flex": (-20, 90), "ring_mcp_abd": (-20, 20), "ring_pip": (0, 110), "ring_dip": (0, 70),
-    "pinky_mcp_flex": (-20, 90), "pinky_mcp_abd": (-30, 30), "pinky_pip": (0, 110), "pinky_dip": (0, 70),
+    "thumb_cmc_flex": (-20, 50),
+    "thumb_cmc_abd": (0, 70),
+    "thumb_mcp": (-10, 60),
+    "thumb_ip": (-15, 80),
+    "index_mcp_flex": (-20, 90),
+    "index_mcp_abd": (-25, 25),
+    "index_pip": (0, 110),
+    "index_dip": (0, 70),
+    "middle_mcp_flex": (-20, 90),
+    "middle_mcp_abd": (-20, 20),
+    "middle_pip": (0, 110),
+    "middle_dip": (0, 70),
+    "ring_mcp_flex": (-20, 90),
+    "ring_mcp_abd": (-20, 20),
+    "ring_pip": (0, 110),
+    "ring_dip": (0, 70),
+    "pinky_mcp_flex": (-20, 90),
+    "pinky_mcp_abd": (-30, 30),
+    "pinky_pip": (0, 110),
+    "pinky_dip": (0, 70),
 }
 LIMITS = np.radians([_LIMITS_DEG[j] for j in JOINTS])  # (20, 2) low, high in radians
 
@@ -82,10 +100,10 @@ _BUCHHOLZ = {
 # Chain bases on the palm (mm, palm frame) for a 190 mm hand: the thumb CMC, then the four MCP joints.
 _BASES_MM = (
     (22.0, 20.0, -12.0),  # thumb CMC
-    (68.0, 24.0, 0.0),    # index MCP
-    (70.0, 5.0, 0.0),     # middle MCP
-    (64.0, -13.0, 0.0),   # ring MCP
-    (56.0, -30.0, 0.0),   # pinky MCP
+    (68.0, 24.0, 0.0),  # index MCP
+    (70.0, 5.0, 0.0),  # middle MCP
+    (64.0, -13.0, 0.0),  # ring MCP
+    (56.0, -30.0, 0.0),  # pinky MCP
 )
 
 

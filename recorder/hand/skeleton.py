@@ -11,11 +11,21 @@ FINGERS = ("thumb", "index", "middle", "ring", "pinky")
 
 SEGMENTS = (
     "palm",
-    "thumb_metacarpal", "thumb_proximal", "thumb_distal",
-    "index_proximal", "index_intermediate", "index_distal",
-    "middle_proximal", "middle_intermediate", "middle_distal",
-    "ring_proximal", "ring_intermediate", "ring_distal",
-    "pinky_proximal", "pinky_intermediate", "pinky_distal",
+    "thumb_metacarpal",
+    "thumb_proximal",
+    "thumb_distal",
+    "index_proximal",
+    "index_intermediate",
+    "index_distal",
+    "middle_proximal",
+    "middle_intermediate",
+    "middle_distal",
+    "ring_proximal",
+    "ring_intermediate",
+    "ring_distal",
+    "pinky_proximal",
+    "pinky_intermediate",
+    "pinky_distal",
 )
 N_SEGMENTS = len(SEGMENTS)
 

@@ -23,8 +23,11 @@ def add_parsers(subparsers) -> None:
     p.add_argument("--repo-id", required=True, help=REPO_HELP)
     p.add_argument("--root", required=True, help="the dataset folder to publish")
     p.add_argument("--hub", help=HUB_HELP)
-    p.add_argument("--to-hf", action="store_true",
-                   help="then push the new version to the Hugging Face Hub too (needs a network and a token)")
+    p.add_argument(
+        "--to-hf",
+        action="store_true",
+        help="then push the new version to the Hugging Face Hub too (needs a network and a token)",
+    )
     p.add_argument("--private", action="store_true", help="with --to-hf: create the Hugging Face repo private")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_push)
@@ -55,6 +58,7 @@ def add_parsers(subparsers) -> None:
 
 def _one_line(handler):
     """Turn an OSError that slipped through (a full disk, a folder that vanished) into a one-line GloverecError."""
+
     @functools.wraps(handler)
     def run(args: argparse.Namespace) -> int:
         try:
@@ -63,6 +67,7 @@ def _one_line(handler):
             command = " ".join(filter(None, (args.command, getattr(args, "hub_command", None))))
             where = f" {exc.filename}:" if exc.filename else ""
             raise GloverecError(f"{command}:{where} {exc.strerror or exc}") from None
+
     return run
 
 
@@ -79,8 +84,10 @@ def cmd_push(args: argparse.Namespace) -> int:
     out = {**_describe(version), "latest": str(hub.link(args.repo_id)), "same_as": twin.tag if twin else None}
     if not args.json:
         same = f", same content as {twin.tag}" if twin else ""
-        print(f"pushed {args.repo_id} {version.tag} to {version.path} ({_counts(out)}{same}); "
-              f"LeRobotDataset({args.repo_id!r}, root={out['latest']!r}) loads the newest")
+        print(
+            f"pushed {args.repo_id} {version.tag} to {version.path} ({_counts(out)}{same}); "
+            f"LeRobotDataset({args.repo_id!r}, root={out['latest']!r}) loads the newest"
+        )
     if args.to_hf:
         try:
             out["hf_url"] = hf.push_version(args.repo_id, version.path, private=args.private)
@@ -101,8 +108,15 @@ def cmd_hub_list(args: argparse.Namespace) -> int:
     from recorder.hub.store import Hub
 
     hub = Hub(args.hub)
-    repos = [{"repo_id": rid, "latest": hub.latest(rid), "path": str(hub.link(rid)),
-              "versions": [_describe(v) for v in hub.versions(rid)]} for rid in hub.repo_ids()]
+    repos = [
+        {
+            "repo_id": rid,
+            "latest": hub.latest(rid),
+            "path": str(hub.link(rid)),
+            "versions": [_describe(v) for v in hub.versions(rid)],
+        }
+        for rid in hub.repo_ids()
+    ]
     if args.json:
         print(json.dumps(repos))
     elif not repos:
@@ -123,12 +137,29 @@ def cmd_hub_verify(args: argparse.Namespace) -> int:
     hub = Hub(args.hub)
     report = hub.verify(args.repo_id, args.version)
     if args.json:
-        print(json.dumps({
-            "hub": str(hub.root), "ok": report.ok, "cleaned": report.cleaned, "relinked": report.relinked,
-            "errors": report.errors,
-            "versions": [{"repo_id": c.version.repo_id, "version": c.version.tag, "path": str(c.version.path),
-                          "ok": c.ok, "files": c.files, "problem": c.problem or None, **c.damage.as_dict()}
-                         for c in report.checks]}))
+        print(
+            json.dumps(
+                {
+                    "hub": str(hub.root),
+                    "ok": report.ok,
+                    "cleaned": report.cleaned,
+                    "relinked": report.relinked,
+                    "errors": report.errors,
+                    "versions": [
+                        {
+                            "repo_id": c.version.repo_id,
+                            "version": c.version.tag,
+                            "path": str(c.version.path),
+                            "ok": c.ok,
+                            "files": c.files,
+                            "problem": c.problem or None,
+                            **c.damage.as_dict(),
+                        }
+                        for c in report.checks
+                    ],
+                }
+            )
+        )
     else:
         for c in report.checks:
             print(f"{'ok' if c.ok else 'DAMAGED':8} {c.version.repo_id} {c.version.tag}: {c.describe()}")
@@ -169,9 +200,15 @@ def _describe(version) -> dict:
     except GloverecError as exc:
         return {**out, "damaged": str(exc)}
     ds = m.get("dataset") or {}
-    return {**out, "created": m.get("created"), "files": len(m["files"]),
-            "bytes": sum(f["size"] for f in m["files"].values()),
-            "episodes": ds.get("total_episodes"), "frames": ds.get("total_frames"), "fps": ds.get("fps")}
+    return {
+        **out,
+        "created": m.get("created"),
+        "files": len(m["files"]),
+        "bytes": sum(f["size"] for f in m["files"].values()),
+        "episodes": ds.get("total_episodes"),
+        "frames": ds.get("total_frames"),
+        "fps": ds.get("fps"),
+    }
 
 
 def _counts(v: dict) -> str:

@@ -18,10 +18,22 @@ CODEBASE_VERSION = "v3.0"
 INFO = "meta/info.json"
 TASKS = "meta/tasks.parquet"
 EPISODES_DIR = "meta/episodes"
-_INFO_KEYS = {"fps": int, "total_episodes": int, "total_frames": int, "total_tasks": int, "features": dict,
-              "data_path": str}
-_EPISODE_COLUMNS = ["episode_index", "length", "data/chunk_index", "data/file_index", "dataset_from_index",
-                    "dataset_to_index"]
+_INFO_KEYS = {
+    "fps": int,
+    "total_episodes": int,
+    "total_frames": int,
+    "total_tasks": int,
+    "features": dict,
+    "data_path": str,
+}
+_EPISODE_COLUMNS = [
+    "episode_index",
+    "length",
+    "data/chunk_index",
+    "data/file_index",
+    "dataset_from_index",
+    "dataset_to_index",
+]
 
 
 class _Damaged(Exception):
@@ -63,11 +75,14 @@ def _check(root: Path) -> dict:
         raise _Damaged("it has no episodes")
     episodes = _read_episodes(root, sorted(p for p in rows if p.startswith(EPISODES_DIR + "/")))
     if sorted(episodes["episode_index"]) != list(range(info["total_episodes"])):
-        raise _Damaged(f"{EPISODES_DIR} does not list episodes 0..{info['total_episodes'] - 1} as {INFO} says "
-                       f"({len(episodes['episode_index'])} rows)")
+        raise _Damaged(
+            f"{EPISODES_DIR} does not list episodes 0..{info['total_episodes'] - 1} as {INFO} says "
+            f"({len(episodes['episode_index'])} rows)"
+        )
     if sum(episodes["length"]) != info["total_frames"]:
-        raise _Damaged(f"the episode lengths add up to {sum(episodes['length'])} frames, "
-                       f"{INFO} says {info['total_frames']}")
+        raise _Damaged(
+            f"the episode lengths add up to {sum(episodes['length'])} frames, {INFO} says {info['total_frames']}"
+        )
     data_rows = sum(n for p, n in rows.items() if p.startswith("data/"))
     if data_rows != info["total_frames"]:
         raise _Damaged(f"data/ holds {data_rows} frames, {INFO} says {info['total_frames']}")
@@ -85,8 +100,10 @@ def _read_info(root: Path) -> dict:
     if not isinstance(info, dict):
         raise _Damaged(f"{INFO} is not a JSON object")
     if info.get("codebase_version") != CODEBASE_VERSION:
-        raise _Unsupported(f"is a LeRobot {info.get('codebase_version')!r} dataset; the hub takes {CODEBASE_VERSION} "
-                           "(convert it with lerobot's conversion script)")
+        raise _Unsupported(
+            f"is a LeRobot {info.get('codebase_version')!r} dataset; the hub takes {CODEBASE_VERSION} "
+            "(convert it with lerobot's conversion script)"
+        )
     for key, kind in _INFO_KEYS.items():
         if not isinstance(info.get(key), kind) or isinstance(info.get(key), bool):
             raise _Damaged(f"{INFO} has no valid {key!r}")
@@ -120,8 +137,13 @@ def _read_episodes(root: Path, files: list[str]) -> dict[str, list]:
     for name, values in columns.items():
         if len(values) != len(columns["episode_index"]):
             raise _Damaged(f"column {name!r} is missing from some of {EPISODES_DIR}")
-    spans = zip(columns["episode_index"], columns["dataset_from_index"], columns["dataset_to_index"],
-                columns["length"], strict=True)
+    spans = zip(
+        columns["episode_index"],
+        columns["dataset_from_index"],
+        columns["dataset_to_index"],
+        columns["length"],
+        strict=True,
+    )
     for episode, start, stop, length in spans:
         if stop - start != length:
             raise _Damaged(f"episode {episode} spans frames {start}..{stop} but has length {length}")
@@ -130,8 +152,10 @@ def _read_episodes(root: Path, files: list[str]) -> dict[str, list]:
 
 def _referenced_files(info: dict, episodes: dict[str, list]) -> set[str]:
     """The data and video files that the episode metadata points to."""
-    needed = {info["data_path"].format(chunk_index=c, file_index=f)
-              for c, f in zip(episodes["data/chunk_index"], episodes["data/file_index"], strict=True)}
+    needed = {
+        info["data_path"].format(chunk_index=c, file_index=f)
+        for c, f in zip(episodes["data/chunk_index"], episodes["data/file_index"], strict=True)
+    }
     video_path = info.get("video_path")
     for key, feature in info["features"].items():
         if isinstance(feature, dict) and feature.get("dtype") == "video" and video_path:
@@ -139,8 +163,10 @@ def _referenced_files(info: dict, episodes: dict[str, list]) -> set[str]:
             files = episodes.get(f"videos/{key}/file_index")
             if chunks is None or files is None:
                 raise _Damaged(f"the episode metadata does not locate the videos of {key!r}")
-            needed |= {video_path.format(video_key=key, chunk_index=c, file_index=f)
-                       for c, f in zip(chunks, files, strict=True)}
+            needed |= {
+                video_path.format(video_key=key, chunk_index=c, file_index=f)
+                for c, f in zip(chunks, files, strict=True)
+            }
     return needed
 
 

@@ -18,8 +18,10 @@ _ALLOW = ["meta/", "data/", "videos/"]
 def require_online() -> None:
     """GloverecError unless the Hugging Face Hub can be reached in principle: not offline, and a token exists."""
     if os.environ.get("HF_HUB_OFFLINE", "").strip().upper() in _TRUE:
-        raise GloverecError("--to-hf: HF_HUB_OFFLINE is set, so nothing can be pushed to the Hugging Face Hub "
-                            "(unset it, or push without --to-hf)")
+        raise GloverecError(
+            "--to-hf: HF_HUB_OFFLINE is set, so nothing can be pushed to the Hugging Face Hub "
+            "(unset it, or push without --to-hf)"
+        )
     from huggingface_hub import get_token
 
     if not get_token():
@@ -35,6 +37,8 @@ def push_version(repo_id: str, root: os.PathLike, private: bool = False) -> str:
         LeRobotDataset(repo_id, root=root).push_to_hub(private=private, allow_patterns=_ALLOW, tags=["gloverec"])
     except Exception as exc:  # network, auth and server errors come from several libraries: all end up here
         text = str(exc).strip().splitlines()
-        raise GloverecError(f"--to-hf: the push to the Hugging Face Hub failed: {type(exc).__name__}: "
-                            f"{text[0] if text else 'no details'}") from None
+        raise GloverecError(
+            f"--to-hf: the push to the Hugging Face Hub failed: {type(exc).__name__}: "
+            f"{text[0] if text else 'no details'}"
+        ) from None
     return f"https://huggingface.co/datasets/{repo_id}"

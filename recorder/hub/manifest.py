@@ -27,8 +27,7 @@ _BAR_FILES, _BAR_BYTES = 20, 64 << 20  # show a progress bar from this many file
 def dataset_files(root: Path) -> list[str]:
     """What a push takes from a dataset folder: every file except top-level hidden entries (``.cache``, ...),
     ``images/`` (lerobot's temporary PNGs, which its own push_to_hub skips too) and a manifest."""
-    return [rel for rel in all_files(root)
-            if not (rel.startswith(".") or rel.startswith("images/") or rel == NAME)]
+    return [rel for rel in all_files(root) if not (rel.startswith(".") or rel.startswith("images/") or rel == NAME)]
 
 
 def all_files(root: Path) -> list[str]:
@@ -48,8 +47,15 @@ def hash_files(src: Path, files: list[str], dest: Path | None = None, label: str
     sizes = {rel: _size(src / rel) for rel in files}
     quiet = len(files) < _BAR_FILES and sum(sizes.values()) < _BAR_BYTES
     out = {}
-    with tqdm(total=sum(sizes.values()), unit="B", unit_scale=True, desc=label, leave=False, file=sys.stderr,
-              disable=True if quiet else None) as bar:
+    with tqdm(
+        total=sum(sizes.values()),
+        unit="B",
+        unit_scale=True,
+        desc=label,
+        leave=False,
+        file=sys.stderr,
+        disable=True if quiet else None,
+    ) as bar:
         for rel in files:
             out[rel] = _hash_one(src / rel, None if dest is None else dest / rel, bar.update)
     return out
@@ -65,7 +71,7 @@ def _size(path: Path) -> int:
 def _hash_one(path: Path, copy_to: Path | None, progress) -> dict:
     digest, size = hashlib.sha256(), 0
     try:
-        with open(path, "rb") as f, (_create(copy_to) if copy_to else contextlib.nullcontext()) as out:
+        with open(path, "rb") as f, _create(copy_to) if copy_to else contextlib.nullcontext() as out:
             while chunk := f.read(_CHUNK):
                 digest.update(chunk)
                 if out is not None:
@@ -142,7 +148,10 @@ def read(folder: Path) -> dict:
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise GloverecError(f"{folder} is damaged: unreadable {NAME} ({exc})") from None
     files = manifest.get("files") if isinstance(manifest, dict) else None
-    if not isinstance(files, dict) or manifest.get("format") != FORMAT or not all(
-            isinstance(v, dict) and set(v) == {"size", "sha256"} for v in files.values()):
+    if (
+        not isinstance(files, dict)
+        or manifest.get("format") != FORMAT
+        or not all(isinstance(v, dict) and set(v) == {"size", "sha256"} for v in files.values())
+    ):
         raise GloverecError(f"{folder} is damaged: {NAME} is not a {FORMAT} manifest")
     return manifest

@@ -24,8 +24,10 @@ def parse_repo_id(text: str) -> tuple[str, str]:
     """``"USER/NAME"`` -> ``("USER", "NAME")``; anything else (``..``, absolute paths, empty parts) is an error."""
     parts = str(text).split("/")
     if len(parts) != 2 or not all(_PART.fullmatch(p) for p in parts) or ".." in text:
-        raise GloverecError(f"bad repo id {text!r}: expected USER/NAME, each part 1-96 characters from "
-                            "A-Z a-z 0-9 . _ - starting with a letter or digit, without '..'")
+        raise GloverecError(
+            f"bad repo id {text!r}: expected USER/NAME, each part 1-96 characters from "
+            "A-Z a-z 0-9 . _ - starting with a letter or digit, without '..'"
+        )
     return parts[0], parts[1]
 
 

@@ -102,16 +102,18 @@ class Hub:
         self._require()
         have = self.versions(repo_id)
         if not have:
-            raise GloverecError(f"no dataset {repo_id} in the hub {self.root} "
-                                "(`gloverec hub list` shows what is there)")
+            raise GloverecError(
+                f"no dataset {repo_id} in the hub {self.root} (`gloverec hub list` shows what is there)"
+            )
         if version is None:
             return have[-1]
         number = names.parse_version(version)
         for v in have:
             if v.number == number:
                 return v
-        raise GloverecError(f"{repo_id} has no version {names.tag(number)} in {self.root} "
-                            f"(it has {', '.join(v.tag for v in have)})")
+        raise GloverecError(
+            f"{repo_id} has no version {names.tag(number)} in {self.root} (it has {', '.join(v.tag for v in have)})"
+        )
 
     def link(self, repo_id: str) -> Path:
         """``<hub>/USER/NAME``: the symlink to the newest version, what `LeRobotDataset(root=...)` is given."""
@@ -158,13 +160,29 @@ class Hub:
             staging = atomic.temp_dir(folder, name)
             files = manifest.hash_files(src, manifest.dataset_files(src), staging, f"copying {repo_id}")
             info = dataset.check_dataset(staging, shown_as=src)
-            version = self._publish(staging, repo_id, {
-                "format": manifest.FORMAT, "repo_id": repo_id, "gloverec": __version__,
-                "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-                "source": str(src.resolve()),
-                "dataset": {k: info.get(k) for k in ("codebase_version", "fps", "robot_type", "total_episodes",
-                                                     "total_frames", "total_tasks")},
-                "files": files})
+            version = self._publish(
+                staging,
+                repo_id,
+                {
+                    "format": manifest.FORMAT,
+                    "repo_id": repo_id,
+                    "gloverec": __version__,
+                    "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+                    "source": str(src.resolve()),
+                    "dataset": {
+                        k: info.get(k)
+                        for k in (
+                            "codebase_version",
+                            "fps",
+                            "robot_type",
+                            "total_episodes",
+                            "total_frames",
+                            "total_tasks",
+                        )
+                    },
+                    "files": files,
+                },
+            )
             self.relink(repo_id)
         except BaseException as exc:
             if staging is not None and staging.exists():
@@ -282,13 +300,15 @@ class Hub:
         return Check(v, manifest.compare(v.path, m, label=f"verifying {v.repo_id} {v.tag}"), files=len(m["files"]))
 
     def _users(self) -> list[Path]:
-        return sorted(p for p in self.root.iterdir()
-                      if p.is_dir() and not p.name.startswith(".")) if self.root.is_dir() else []
+        return (
+            sorted(p for p in self.root.iterdir() if p.is_dir() and not p.name.startswith("."))
+            if self.root.is_dir()
+            else []
+        )
 
     def _require(self) -> None:
         if not self.root.is_dir():
-            raise GloverecError(f"no hub at {self.root} (push a dataset first, or pass --hub or set "
-                                f"{names.HUB_ENV})")
+            raise GloverecError(f"no hub at {self.root} (push a dataset first, or pass --hub or set {names.HUB_ENV})")
 
 
 def _clear_link_slot(link: Path) -> None:

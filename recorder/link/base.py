@@ -11,8 +11,8 @@ from __future__ import annotations
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
-from typing import Callable
 
 from recorder import GloverecError
 from recorder.link.clock import DeviceClock
@@ -63,7 +63,7 @@ class GloveSource:
         self.finished = False  # the source ended (a log played to its end); read() then returns None at once
 
     # ------------------------------------------------------------ lifecycle
-    def open(self) -> "GloveSource":
+    def open(self) -> GloveSource:
         if self._thread is not None:  # already open (open_source() opens; `with` may follow)
             return self
         try:
@@ -84,7 +84,7 @@ class GloveSource:
         with self._cond:
             self._cond.notify_all()
 
-    def __enter__(self) -> "GloveSource":
+    def __enter__(self) -> GloveSource:
         return self.open()
 
     def __exit__(self, *exc) -> None:
@@ -125,9 +125,16 @@ class GloveSource:
 
     def stats(self) -> LinkStats:
         down = self._down_total + (time.monotonic() - self._down_since if self._down_since else 0.0)
-        return LinkStats(self.decoder.protocol, self._connected, self._reconnects, round(down, 3),
-                         self._queue_drops, self.clock.offset_s, self.clock.drift * 1e6,
-                         self.decoder.stats.as_dict())
+        return LinkStats(
+            self.decoder.protocol,
+            self._connected,
+            self._reconnects,
+            round(down, 3),
+            self._queue_drops,
+            self.clock.offset_s,
+            self.clock.drift * 1e6,
+            self.decoder.stats.as_dict(),
+        )
 
     # ------------------------------------------------------------ reader thread
     def _run(self) -> None:

@@ -22,12 +22,12 @@ class DeviceClock:
     def __init__(self) -> None:
         self.host_monotonic = False
         self._last_raw: int | None = None
-        self._epoch = 0                       # µs added for wraps
+        self._epoch = 0  # µs added for wraps
         self._buckets: deque[tuple[float, float]] = deque(maxlen=BUCKETS)  # (device_s, min host-device)
         self._bucket_start: float | None = None
         self._bucket_min = np.inf
         self.offset_s = 0.0
-        self.drift = 0.0                      # s/s (ppm = drift * 1e6)
+        self.drift = 0.0  # s/s (ppm = drift * 1e6)
         self._ready = False
 
     def reset(self) -> None:

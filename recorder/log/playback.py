@@ -16,8 +16,9 @@ import json
 import os
 import struct
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import Iterator, NamedTuple
+from typing import NamedTuple
 
 from mcap.data_stream import ReadDataStream
 from mcap.exceptions import McapError, UnsupportedCompressionError
@@ -32,8 +33,15 @@ from recorder.protocol import StreamDecoder
 from recorder.protocol.frames import Frame
 
 MAGIC = b"\x89MCAP0\r\n"
-_RECORDS = {Opcode.HEADER: Header, Opcode.METADATA: Metadata, Opcode.CHUNK: Chunk, Opcode.CHANNEL: Channel,
-            Opcode.SCHEMA: Schema, Opcode.DATA_END: DataEnd, Opcode.FOOTER: Footer}
+_RECORDS = {
+    Opcode.HEADER: Header,
+    Opcode.METADATA: Metadata,
+    Opcode.CHUNK: Chunk,
+    Opcode.CHANNEL: Channel,
+    Opcode.SCHEMA: Schema,
+    Opcode.DATA_END: DataEnd,
+    Opcode.FOOTER: Footer,
+}
 _CORRUPT = (McapError, ValueError, struct.error, EOFError, RuntimeError, IndexError, KeyError)
 try:
     import zstandard
@@ -45,7 +53,7 @@ except ImportError:
 
 class LoggedChunk(NamedTuple):
     log_time_ns: int  # MCAP log time: ns since the Unix epoch
-    rx_ns: int        # host CLOCK_MONOTONIC (ns) of the recording machine when the bytes were read
+    rx_ns: int  # host CLOCK_MONOTONIC (ns) of the recording machine when the bytes were read
     data: bytes
 
 
@@ -59,7 +67,7 @@ class LogReader:
         self.channels: dict[int, Channel] = {}
         self.bytes_channel: Channel | None = None
         self.complete = False  # the footer was reached (the writer closed the file)
-        self.size = 0          # bytes in the file
+        self.size = 0  # bytes in the file
 
     @property
     def ours(self) -> bool:
@@ -112,8 +120,7 @@ class LogReader:
         """The /glove/bytes messages in file (= receive) order. Raises GloverecError if not a gloverec log."""
         offset = None
         for rec in self.records():
-            if isinstance(rec, Message) and self.bytes_channel is not None \
-                    and rec.channel_id == self.bytes_channel.id:
+            if isinstance(rec, Message) and self.bytes_channel is not None and rec.channel_id == self.bytes_channel.id:
                 if offset is None:
                     offset = self.log_time_offset_ns
                 yield LoggedChunk(rec.log_time, rec.log_time - offset, rec.data)
@@ -125,8 +132,10 @@ class LogReader:
             raise GloverecError(f"{self.path} is an empty or truncated MCAP file ({self.size} bytes)")
         if not self.ours:
             topics = sorted({c.topic for c in self.channels.values()})
-            raise GloverecError(f"{self.path} is not a gloverec log: an MCAP file without a {BYTES_TOPIC} channel "
-                                f"(topics: {', '.join(topics) or 'none'})")
+            raise GloverecError(
+                f"{self.path} is not a gloverec log: an MCAP file without a {BYTES_TOPIC} channel "
+                f"(topics: {', '.join(topics) or 'none'})"
+            )
 
     def _parse(self, opcode: int, body: bytes) -> list:
         stream = ReadDataStream(io.BytesIO(body))
@@ -181,6 +190,7 @@ def iter_frames(path: str, protocol: str = "auto", decoder: StreamDecoder | None
 
 # ---------------------------------------------------------------- summary
 
+
 @dataclass
 class LogInfo:
     """What a log holds. Times are MCAP log times (ns since the Unix epoch); None when it has no messages."""
@@ -188,7 +198,7 @@ class LogInfo:
     path: str
     library: str = ""
     metadata: dict[str, dict[str, str]] = field(default_factory=dict)  # name -> keys (later records update)
-    channels: dict[str, dict] = field(default_factory=dict)   # topic -> message_encoding, schema, metadata
+    channels: dict[str, dict] = field(default_factory=dict)  # topic -> message_encoding, schema, metadata
     message_counts: dict[str, int] = field(default_factory=dict)
     start_ns: int | None = None
     end_ns: int | None = None
@@ -291,11 +301,16 @@ def _read_through(path: str) -> LogInfo:
 
 
 def _channel_info(ch: Channel, schema: Schema | None) -> dict:
-    return {"message_encoding": ch.message_encoding, "schema": schema.name if schema else "",
-            "schema_encoding": schema.encoding if schema else "", "metadata": dict(ch.metadata)}
+    return {
+        "message_encoding": ch.message_encoding,
+        "schema": schema.name if schema else "",
+        "schema_encoding": schema.encoding if schema else "",
+        "metadata": dict(ch.metadata),
+    }
 
 
 # ---------------------------------------------------------------- playback
+
 
 class McapSource(GloveSource):
     """Plays a gloverec log back as a glove source, through the normal decoder path (``_ingest``).
@@ -369,5 +384,4 @@ class McapSource(GloveSource):
             self._stop.wait(0.002)
 
 
-__all__ = ["LogInfo", "LogReader", "LoggedChunk", "McapSource", "iter_chunks", "iter_frames", "probe",
-           "read_log"]
+__all__ = ["LogInfo", "LogReader", "LoggedChunk", "McapSource", "iter_chunks", "iter_frames", "probe", "read_log"]

@@ -25,12 +25,14 @@ from recorder.hand.kinematics import JOINTS
 from recorder.hand.skeleton import SEGMENTS
 from recorder.protocol.frames import (
     CLOCK_HOST_MONOTONIC,
-    VERSION as PROTOCOL_VERSION,
     EventFrame,
     PoseCompactFrame,
     PoseFrame,
     RawFrame,
     StatusFrame,
+)
+from recorder.protocol.frames import (
+    VERSION as PROTOCOL_VERSION,
 )
 
 LOG_FORMAT = "gloverec-log"
@@ -42,8 +44,8 @@ COMPACT_TOPIC = "/glove/pose_compact"
 MARKS_TOPIC = "/gloverec/marks"
 SESSION_METADATA = "gloverec.session"
 GLOVE_METADATA = "gloverec.glove"
-CHUNK_SIZE = 256 * 1024   # bytes (uncompressed) per MCAP chunk
-MAX_CHUNK_S = 1.0         # a chunk is also closed when it is older than this (checked on each write)
+CHUNK_SIZE = 256 * 1024  # bytes (uncompressed) per MCAP chunk
+MAX_CHUNK_S = 1.0  # a chunk is also closed when it is older than this (checked on each write)
 
 _INT = {"type": "integer"}
 _NUM = {"type": "number"}
@@ -53,46 +55,109 @@ _XYZ = {"type": "object", "properties": {"x": _NUM, "y": _NUM, "z": _NUM}, "requ
 
 def _schema(title: str, props: dict, desc: str) -> dict:
     head = {"seq": _INT, "t_us": _INT, "rx_ns": _INT}
-    return {"$schema": "https://json-schema.org/draft/2020-12/schema", "title": title, "description": desc,
-            "type": "object", "properties": head | props, "required": list(head | props)}
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "title": title,
+        "description": desc,
+        "type": "object",
+        "properties": head | props,
+        "required": list(head | props),
+    }
 
 
 SCHEMAS = {
-    POSE_TOPIC: _schema("gloverec.Pose", {
-        "measured_mask": _INT,
-        "segments": {"type": "array", "minItems": 16, "maxItems": 16, "items": {
-            "type": "object", "required": ["name", "measured", "w", "x", "y", "z"],
-            "properties": {"name": _STR, "measured": {"type": "boolean"}, "w": _NUM, "x": _NUM, "y": _NUM,
-                           "z": _NUM}}},
-    }, "16 segment orientations relative to their parent (unit quaternions). t_us: device clock (µs, wraps "
-       "at 2^32); rx_ns: host CLOCK_MONOTONIC at receipt."),
-    RAW_TOPIC: _schema("gloverec.Raw", {
-        "n_imu": _INT, "accel_fs_g": _INT, "gyro_fs_dps": _INT, "ok_mask": _INT,
-        "imus": {"type": "array", "items": {
-            "type": "object", "required": ["index", "ok", "accel_g", "gyro_dps", "temperature_c"],
-            "properties": {"index": _INT, "ok": {"type": "boolean"}, "accel_g": _XYZ, "gyro_dps": _XYZ,
-                           "temperature_c": _NUM}}},
-    }, "MPU9250 readings in the IMU's own axes: acceleration in g, angular rate in deg/s, temperature in °C."),
-    STATUS_TOPIC: _schema("gloverec.Status", {
-        "firmware": _STR, "mode": _STR, "sense_rate_hz": _INT, "output_rate_hz": _INT, "calib_state": _STR,
-        "calib_progress": _INT, "clock_flags": _INT, "clock_host_monotonic": {"type": "boolean"},
-        "glove_id": _INT, "imu_ok_mask": _INT, "n_imu": _INT,
-        "mux_map": {"type": "array", "items": _INT}, "joint_map": {"type": "array", "items": _INT},
-    }, "Glove status (docs/protocol.md)."),
-    COMPACT_TOPIC: _schema("gloverec.PoseCompact", {
-        "palm": {"type": "object", "properties": {"w": _NUM, "x": _NUM, "y": _NUM, "z": _NUM},
-                 "required": ["w", "x", "y", "z"]},
-        "joints_deg": {"type": "object", "additionalProperties": {"type": ["number", "null"]}},
-    }, "Palm orientation (unit quaternion) and the 20 joint angles in degrees (null: not available)."),
-    EVENT_TOPIC: _schema("gloverec.Event", {"code": _INT, "name": _STR, "arg": _INT},
-                         "Glove event (docs/protocol.md)."),
+    POSE_TOPIC: _schema(
+        "gloverec.Pose",
+        {
+            "measured_mask": _INT,
+            "segments": {
+                "type": "array",
+                "minItems": 16,
+                "maxItems": 16,
+                "items": {
+                    "type": "object",
+                    "required": ["name", "measured", "w", "x", "y", "z"],
+                    "properties": {
+                        "name": _STR,
+                        "measured": {"type": "boolean"},
+                        "w": _NUM,
+                        "x": _NUM,
+                        "y": _NUM,
+                        "z": _NUM,
+                    },
+                },
+            },
+        },
+        "16 segment orientations relative to their parent (unit quaternions). t_us: device clock (µs, wraps "
+        "at 2^32); rx_ns: host CLOCK_MONOTONIC at receipt.",
+    ),
+    RAW_TOPIC: _schema(
+        "gloverec.Raw",
+        {
+            "n_imu": _INT,
+            "accel_fs_g": _INT,
+            "gyro_fs_dps": _INT,
+            "ok_mask": _INT,
+            "imus": {
+                "type": "array",
+                "items": {
+                    "type": "object",
+                    "required": ["index", "ok", "accel_g", "gyro_dps", "temperature_c"],
+                    "properties": {
+                        "index": _INT,
+                        "ok": {"type": "boolean"},
+                        "accel_g": _XYZ,
+                        "gyro_dps": _XYZ,
+                        "temperature_c": _NUM,
+                    },
+                },
+            },
+        },
+        "MPU9250 readings in the IMU's own axes: acceleration in g, angular rate in deg/s, temperature in °C.",
+    ),
+    STATUS_TOPIC: _schema(
+        "gloverec.Status",
+        {
+            "firmware": _STR,
+            "mode": _STR,
+            "sense_rate_hz": _INT,
+            "output_rate_hz": _INT,
+            "calib_state": _STR,
+            "calib_progress": _INT,
+            "clock_flags": _INT,
+            "clock_host_monotonic": {"type": "boolean"},
+            "glove_id": _INT,
+            "imu_ok_mask": _INT,
+            "n_imu": _INT,
+            "mux_map": {"type": "array", "items": _INT},
+            "joint_map": {"type": "array", "items": _INT},
+        },
+        "Glove status (docs/protocol.md).",
+    ),
+    COMPACT_TOPIC: _schema(
+        "gloverec.PoseCompact",
+        {
+            "palm": {
+                "type": "object",
+                "properties": {"w": _NUM, "x": _NUM, "y": _NUM, "z": _NUM},
+                "required": ["w", "x", "y", "z"],
+            },
+            "joints_deg": {"type": "object", "additionalProperties": {"type": ["number", "null"]}},
+        },
+        "Palm orientation (unit quaternion) and the 20 joint angles in degrees (null: not available).",
+    ),
+    EVENT_TOPIC: _schema(
+        "gloverec.Event", {"code": _INT, "name": _STR, "arg": _INT}, "Glove event (docs/protocol.md)."
+    ),
     MARKS_TOPIC: {
-        "$schema": "https://json-schema.org/draft/2020-12/schema", "title": "gloverec.Mark", "type": "object",
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "title": "gloverec.Mark",
+        "type": "object",
         "description": "A recorder mark (episode start/end...). rx_ns: host CLOCK_MONOTONIC; log_time_ns: "
-                       "the MCAP log time (ns since the Unix epoch); time: the same as ISO 8601 UTC.",
-        "properties": {"name": _STR, "fields": {"type": "object"}, "rx_ns": _INT, "log_time_ns": _INT,
-                       "time": _STR},
-        "required": ["name", "fields", "rx_ns", "log_time_ns", "time"]},
+        "the MCAP log time (ns since the Unix epoch); time: the same as ISO 8601 UTC.",
+        "properties": {"name": _STR, "fields": {"type": "object"}, "rx_ns": _INT, "log_time_ns": _INT, "time": _STR},
+        "required": ["name", "fields", "rx_ns", "log_time_ns", "time"],
+    },
 }
 
 
@@ -101,11 +166,13 @@ def _compression():
 
     try:
         import zstandard  # noqa: F401
+
         return CompressionType.ZSTD
     except ImportError:
         pass
     try:
         import lz4.frame  # noqa: F401
+
         return CompressionType.LZ4
     except ImportError:
         return CompressionType.NONE
@@ -113,7 +180,7 @@ def _compression():
 
 def iso_utc(ns: int) -> str:
     """ns since the Unix epoch -> ISO 8601 UTC with microseconds."""
-    return datetime.datetime.fromtimestamp(ns / 1e9, datetime.timezone.utc).isoformat()
+    return datetime.datetime.fromtimestamp(ns / 1e9, datetime.UTC).isoformat()
 
 
 def _jsonable(obj):
@@ -129,8 +196,10 @@ def frame_json(frame) -> tuple[str, dict] | None:
     head = {"seq": frame.seq, "t_us": frame.t_us, "rx_ns": frame.rx_ns}
     if isinstance(frame, PoseFrame):
         q = np.round(np.asarray(frame.quats, np.float64), 6).tolist()
-        segs = [{"name": SEGMENTS[i], "measured": bool(frame.measured_mask >> i & 1),
-                 "w": w, "x": x, "y": y, "z": z} for i, (w, x, y, z) in enumerate(q)]
+        segs = [
+            {"name": SEGMENTS[i], "measured": bool(frame.measured_mask >> i & 1), "w": w, "x": x, "y": y, "z": z}
+            for i, (w, x, y, z) in enumerate(q)
+        ]
         return POSE_TOPIC, head | {"measured_mask": frame.measured_mask, "segments": segs}
     if isinstance(frame, PoseCompactFrame):
         deg = np.degrees(np.asarray(frame.angles, np.float64))
@@ -141,19 +210,39 @@ def frame_json(frame) -> tuple[str, dict] | None:
         acc = np.round(frame.accel_g, 6).tolist()
         gyr = np.round(frame.gyro_dps, 6).tolist()
         tmp = np.round(frame.temperature_c, 4).tolist()
-        imus = [{"index": i, "ok": bool(frame.ok_mask >> i & 1),
-                 "accel_g": dict(zip("xyz", acc[i])), "gyro_dps": dict(zip("xyz", gyr[i])),
-                 "temperature_c": tmp[i]} for i in range(len(acc))]
-        return RAW_TOPIC, head | {"n_imu": len(imus), "accel_fs_g": frame.accel_fs_g,
-                                  "gyro_fs_dps": frame.gyro_fs_dps, "ok_mask": frame.ok_mask, "imus": imus}
+        imus = [
+            {
+                "index": i,
+                "ok": bool(frame.ok_mask >> i & 1),
+                "accel_g": dict(zip("xyz", acc[i])),
+                "gyro_dps": dict(zip("xyz", gyr[i])),
+                "temperature_c": tmp[i],
+            }
+            for i in range(len(acc))
+        ]
+        return RAW_TOPIC, head | {
+            "n_imu": len(imus),
+            "accel_fs_g": frame.accel_fs_g,
+            "gyro_fs_dps": frame.gyro_fs_dps,
+            "ok_mask": frame.ok_mask,
+            "imus": imus,
+        }
     if isinstance(frame, StatusFrame):
         return STATUS_TOPIC, head | {
-            "firmware": ".".join(map(str, frame.firmware)), "mode": frame.mode.name.lower(),
-            "sense_rate_hz": frame.sense_rate_hz, "output_rate_hz": frame.output_rate_hz,
-            "calib_state": frame.calib_state.name.lower(), "calib_progress": frame.calib_progress,
-            "clock_flags": frame.clock_flags, "clock_host_monotonic": bool(frame.clock_flags & CLOCK_HOST_MONOTONIC),
-            "glove_id": frame.glove_id, "imu_ok_mask": frame.imu_ok_mask, "n_imu": len(frame.joint_map),
-            "mux_map": list(frame.mux_map), "joint_map": list(frame.joint_map)}
+            "firmware": ".".join(map(str, frame.firmware)),
+            "mode": frame.mode.name.lower(),
+            "sense_rate_hz": frame.sense_rate_hz,
+            "output_rate_hz": frame.output_rate_hz,
+            "calib_state": frame.calib_state.name.lower(),
+            "calib_progress": frame.calib_progress,
+            "clock_flags": frame.clock_flags,
+            "clock_host_monotonic": bool(frame.clock_flags & CLOCK_HOST_MONOTONIC),
+            "glove_id": frame.glove_id,
+            "imu_ok_mask": frame.imu_ok_mask,
+            "n_imu": len(frame.joint_map),
+            "mux_map": list(frame.mux_map),
+            "joint_map": list(frame.joint_map),
+        }
     if isinstance(frame, EventFrame):
         return EVENT_TOPIC, head | {"code": int(frame.code), "name": frame.code.name.lower(), "arg": frame.arg}
     return None
@@ -172,8 +261,16 @@ class McapLogger:
     the reader thread stops logging and is kept in ``error``; ``mark()`` and ``close()`` then raise it.
     """
 
-    def __init__(self, path: str, metadata: dict | None = None, *, boundary: bool | None = None,
-                 chunk_size: int = CHUNK_SIZE, max_chunk_s: float = MAX_CHUNK_S, calibration: dict | None = None):
+    def __init__(
+        self,
+        path: str,
+        metadata: dict | None = None,
+        *,
+        boundary: bool | None = None,
+        chunk_size: int = CHUNK_SIZE,
+        max_chunk_s: float = MAX_CHUNK_S,
+        calibration: dict | None = None,
+    ):
         self.path = str(path)
         self._calibration = "{}" if calibration is None else _calibration_json(calibration)
         self.max_chunk_s = max_chunk_s
@@ -206,16 +303,32 @@ class McapLogger:
         self._writer = Writer(self._file, chunk_size=chunk_size, compression=_compression())
         self._writer.start(library=f"gloverec/{__version__} {LIBRARY_IDENTIFIER}")
         session = {
-            "format": LOG_FORMAT, "log_version": LOG_VERSION, "protocol_version": PROTOCOL_VERSION,
-            "gloverec_version": __version__, "host": socket.gethostname(), "python": platform.python_version(),
-            "source": "", "start_time": iso_utc(wall_ns), "start_time_ns": wall_ns, "start_monotonic_ns": mono_ns,
-            "log_time_offset_ns": self.log_time_offset_ns, "boundary": boundary,
+            "format": LOG_FORMAT,
+            "log_version": LOG_VERSION,
+            "protocol_version": PROTOCOL_VERSION,
+            "gloverec_version": __version__,
+            "host": socket.gethostname(),
+            "python": platform.python_version(),
+            "source": "",
+            "start_time": iso_utc(wall_ns),
+            "start_time_ns": wall_ns,
+            "start_monotonic_ns": mono_ns,
+            "log_time_offset_ns": self.log_time_offset_ns,
+            "boundary": boundary,
             "calibration": self._calibration,  # "{}": not known when the log opened (set_calibration)
         } | meta
         self._writer.add_metadata(SESSION_METADATA, _str_values(session))
-        self._bytes = self._writer.register_channel(BYTES_TOPIC, BYTES_ENCODING, 0, {
-            "log_time_offset_ns": str(self.log_time_offset_ns), "boundary": str(boundary).lower(),
-            "rx_clock": "CLOCK_MONOTONIC", "protocol_version": str(PROTOCOL_VERSION)})
+        self._bytes = self._writer.register_channel(
+            BYTES_TOPIC,
+            BYTES_ENCODING,
+            0,
+            {
+                "log_time_offset_ns": str(self.log_time_offset_ns),
+                "boundary": str(boundary).lower(),
+                "rx_clock": "CLOCK_MONOTONIC",
+                "protocol_version": str(PROTOCOL_VERSION),
+            },
+        )
         self._channels = {}
         for topic, schema in SCHEMAS.items():
             sid = self._writer.register_schema(schema["title"], "jsonschema", json.dumps(schema).encode())
@@ -302,7 +415,7 @@ class McapLogger:
             if self.error is not None:
                 raise self.error
 
-    def __enter__(self) -> "McapLogger":
+    def __enter__(self) -> McapLogger:
         return self
 
     def __exit__(self, *exc) -> None:
@@ -344,12 +457,26 @@ class McapLogger:
         if key == self._glove:
             return
         self._glove = key
-        self._writer.add_metadata(GLOVE_METADATA, _str_values({
-            "glove_id": f.glove_id, "glove_id_hex": f"0x{f.glove_id:08x}", "firmware": ".".join(map(str, f.firmware)),
-            "mode": f.mode.name.lower(), "sense_rate_hz": f.sense_rate_hz, "output_rate_hz": f.output_rate_hz,
-            "n_imu": len(f.joint_map), "imu_ok_mask": f.imu_ok_mask, "mux_map": list(f.mux_map),
-            "joint_map": list(f.joint_map), "clock_flags": f.clock_flags, "seen_log_time_ns": t,
-            "seen_time": iso_utc(t)}))
+        self._writer.add_metadata(
+            GLOVE_METADATA,
+            _str_values(
+                {
+                    "glove_id": f.glove_id,
+                    "glove_id_hex": f"0x{f.glove_id:08x}",
+                    "firmware": ".".join(map(str, f.firmware)),
+                    "mode": f.mode.name.lower(),
+                    "sense_rate_hz": f.sense_rate_hz,
+                    "output_rate_hz": f.output_rate_hz,
+                    "n_imu": len(f.joint_map),
+                    "imu_ok_mask": f.imu_ok_mask,
+                    "mux_map": list(f.mux_map),
+                    "joint_map": list(f.joint_map),
+                    "clock_flags": f.clock_flags,
+                    "seen_log_time_ns": t,
+                    "seen_time": iso_utc(t),
+                }
+            ),
+        )
         self._file.flush()
         self._written = self._file.tell()
 

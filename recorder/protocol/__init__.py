@@ -1,6 +1,6 @@
 """The glove wire protocol (spec: docs/protocol.md): frames, the binary codec, legacy JSON, stream decoding."""
 
-from recorder.protocol.codec import decode_frame, encode_frame, encode_command
+from recorder.protocol.codec import decode_frame, encode_command, encode_frame
 from recorder.protocol.frames import (
     Command,
     CommandCode,
@@ -16,6 +16,19 @@ from recorder.protocol.frames import (
 from recorder.protocol.stream import DecodeStats, StreamDecoder
 
 __all__ = [
-    "Command", "CommandCode", "DecodeStats", "EventCode", "EventFrame", "FrameKind", "Mode", "PoseCompactFrame",
-    "PoseFrame", "RawFrame", "StatusFrame", "StreamDecoder", "decode_frame", "encode_command", "encode_frame",
+    "Command",
+    "CommandCode",
+    "DecodeStats",
+    "EventCode",
+    "EventFrame",
+    "FrameKind",
+    "Mode",
+    "PoseCompactFrame",
+    "PoseFrame",
+    "RawFrame",
+    "StatusFrame",
+    "StreamDecoder",
+    "decode_frame",
+    "encode_command",
+    "encode_frame",
 ]

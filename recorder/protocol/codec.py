@@ -57,6 +57,7 @@ class FrameError(ValueError):
 
 # ---------------------------------------------------------------- encoding
 
+
 def q14(values) -> np.ndarray:
     """Quaternion components in fixed point Q14: rint(v * 16384) (ties to even), saturated; NaN gives 0."""
     v = np.nan_to_num(np.asarray(values, np.float64) * Q14, nan=0.0)
@@ -93,8 +94,10 @@ def _payload(frame: Frame) -> bytes:
     if isinstance(frame, PoseCompactFrame):
         palm, angles = q14(frame.palm_quat), angle_counts(frame.angles)
         if palm.shape != (4,) or angles.shape != (N_ANGLES,):
-            raise ValueError(f"pose_compact needs a palm quaternion (4,) and {N_ANGLES} angles, got shapes "
-                             f"{palm.shape} and {angles.shape}")
+            raise ValueError(
+                f"pose_compact needs a palm quaternion (4,) and {N_ANGLES} angles, got shapes "
+                f"{palm.shape} and {angles.shape}"
+            )
         return palm.tobytes() + pack12(angles)
     if isinstance(frame, RawFrame):
         data = np.asarray(frame.data).astype(_POSE_I16)
@@ -105,9 +108,18 @@ def _payload(frame: Frame) -> bytes:
         n = len(frame.joint_map)
         if len(frame.mux_map) != n:
             raise ValueError("mux_map and joint_map differ in length")
-        head = STATUS_HEAD.pack(*frame.firmware, int(frame.mode), frame.sense_rate_hz, frame.output_rate_hz,
-                                int(frame.calib_state), frame.calib_progress, frame.clock_flags, frame.glove_id,
-                                frame.imu_ok_mask, n)
+        head = STATUS_HEAD.pack(
+            *frame.firmware,
+            int(frame.mode),
+            frame.sense_rate_hz,
+            frame.output_rate_hz,
+            int(frame.calib_state),
+            frame.calib_progress,
+            frame.clock_flags,
+            frame.glove_id,
+            frame.imu_ok_mask,
+            n,
+        )
         return head + bytes(frame.mux_map) + bytes(frame.joint_map)
     if isinstance(frame, EventFrame):
         return EVENT.pack(int(frame.code), frame.arg)
@@ -137,6 +149,7 @@ def encode_command(code: CommandCode, arg: int = 0, seq: int = 0) -> bytes:
 
 # ---------------------------------------------------------------- decoding
 
+
 def decode_frame(chunk: bytes) -> Frame:
     """Decode one COBS chunk (without its 0x00 delimiter). Raises FrameError on anything invalid."""
     if len(chunk) > MAX_FRAME + MAX_FRAME // 254 + 2:
@@ -157,7 +170,7 @@ def decode_body(body: bytes) -> Frame:
     version, kind, seq, t_us = HEADER.unpack_from(body)
     if version != VERSION:
         raise FrameError(f"unknown protocol version {version}")
-    payload = memoryview(body)[HEADER.size:-4]
+    payload = memoryview(body)[HEADER.size : -4]
     try:
         decoder = _DECODERS[kind]
     except KeyError:
@@ -200,9 +213,22 @@ def _decode_status(seq: int, t_us: int, p: memoryview) -> StatusFrame:
     (ma, mi, pa, mode, sense, out, cstate, cprog, clock, glove_id, ok, n) = STATUS_HEAD.unpack_from(p)
     if len(p) != STATUS_HEAD.size + 2 * n or n > 16:
         raise ValueError(f"{len(p)} bytes for {n} IMUs")
-    maps = bytes(p[STATUS_HEAD.size:])
-    return StatusFrame(seq, t_us, (ma, mi, pa), Mode(mode), sense, out, CalibState(cstate), cprog, clock,
-                       glove_id, ok, tuple(maps[:n]), tuple(maps[n:]))
+    maps = bytes(p[STATUS_HEAD.size :])
+    return StatusFrame(
+        seq,
+        t_us,
+        (ma, mi, pa),
+        Mode(mode),
+        sense,
+        out,
+        CalibState(cstate),
+        cprog,
+        clock,
+        glove_id,
+        ok,
+        tuple(maps[:n]),
+        tuple(maps[n:]),
+    )
 
 
 def _decode_event(seq: int, t_us: int, p: memoryview) -> EventFrame:

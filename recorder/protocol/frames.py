@@ -14,8 +14,8 @@ Q14 = 16384.0  # pose quaternion fixed point: 1.0 == 16384
 MPU_TEMP_SENSITIVITY = 333.87  # LSB/degC, MPU9250 datasheet; degC = raw / 333.87 + 21
 MPU_TEMP_OFFSET_C = 21.0
 ANGLE_LSB = np.pi / 1800.0  # pose_compact joint angles: 12-bit integers of 0.1 degree
-ANGLE_MISSING = -2048       # pose_compact: the joint angle is not available (NaN)
-N_ANGLES = 20               # recorder.hand.kinematics.JOINTS
+ANGLE_MISSING = -2048  # pose_compact: the joint angle is not available (NaN)
+N_ANGLES = 20  # recorder.hand.kinematics.JOINTS
 
 
 class FrameKind(enum.IntEnum):
@@ -36,18 +36,18 @@ class Mode(enum.IntEnum):
 
 class EventCode(enum.IntEnum):
     BOOT = 1
-    BUTTON = 2          # reset button pressed (the glove also resets its reference pose)
-    POSE_RESET = 3      # reference pose reset (button or command)
-    IMU_FAULT = 4       # arg: IMU index that stopped answering
-    IMU_RECOVERED = 5   # arg: IMU index
+    BUTTON = 2  # reset button pressed (the glove also resets its reference pose)
+    POSE_RESET = 3  # reference pose reset (button or command)
+    IMU_FAULT = 4  # arg: IMU index that stopped answering
+    IMU_RECOVERED = 5  # arg: IMU index
     CALIB_START = 6
     CALIB_DONE = 7
-    CALIB_REFUSED = 8   # the hand moved during gyro calibration; it is retried
+    CALIB_REFUSED = 8  # the hand moved during gyro calibration; it is retried
 
 
 class CommandCode(enum.IntEnum):
-    SET_MODE = 1        # arg u8: Mode
-    SET_RATE = 2        # arg u16: output rate in Hz
+    SET_MODE = 1  # arg u8: Mode
+    SET_RATE = 2  # arg u16: output rate in Hz
     RECALIBRATE = 3
     RESET_POSE = 4
     GET_STATUS = 5
@@ -172,4 +172,3 @@ def identity_pose() -> np.ndarray:
     q = np.zeros((N_SEGMENTS, 4), np.float32)
     q[:, 0] = 1.0
     return q
-

@@ -62,6 +62,7 @@ def decode_line(line: bytes | str, seq: int = -1) -> PoseFrame:
 
 def encode_line(quats: np.ndarray, decimals: int = 6) -> bytes:
     """The thesis' payload for 16 parent-relative quaternions, newline-terminated."""
+
     def q(i):
         return {k: round(float(v), decimals) for k, v in zip(_KEYS, quats[i])}
 

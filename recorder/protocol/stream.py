@@ -14,23 +14,23 @@ from recorder.protocol.frames import Frame
 from recorder.protocol.legacy_json import JsonFrameError, decode_line
 
 BINARY, JSON = "binary", "json"
-MAX_LINE = 8192           # a legacy JSON line is ~1.2 kB; anything longer without a newline is garbage
+MAX_LINE = 8192  # a legacy JSON line is ~1.2 kB; anything longer without a newline is garbage
 MAX_CHUNK = MAX_FRAME + 8  # COBS adds one byte per 254
-REDETECT_AFTER = 8        # consecutive bad frames before an auto decoder looks for the other protocol
-LATE_WINDOW = 256         # a sequence number this far behind is a late (reordered) frame, dropped
-RESTART_JUMP = 0x4000     # a forward jump larger than this is a device restart, not a gap
+REDETECT_AFTER = 8  # consecutive bad frames before an auto decoder looks for the other protocol
+LATE_WINDOW = 256  # a sequence number this far behind is a late (reordered) frame, dropped
+RESTART_JUMP = 0x4000  # a forward jump larger than this is a device restart, not a gap
 
 
 @dataclass
 class DecodeStats:
-    frames: int = 0          # frames accepted
-    bytes: int = 0           # bytes fed
-    crc_errors: int = 0      # frames with a checksum mismatch
-    format_errors: int = 0   # bad COBS, bad length, unknown version or kind, malformed JSON, overlong garbage
-    gaps: int = 0            # frames missing according to the sequence numbers
-    reordered: int = 0       # late or duplicated frames (dropped)
-    seq_resets: int = 0      # the device's sequence restarted (reboot, reconnect)
-    skipped_bytes: int = 0   # bytes discarded while looking for the first valid frame
+    frames: int = 0  # frames accepted
+    bytes: int = 0  # bytes fed
+    crc_errors: int = 0  # frames with a checksum mismatch
+    format_errors: int = 0  # bad COBS, bad length, unknown version or kind, malformed JSON, overlong garbage
+    gaps: int = 0  # frames missing according to the sequence numbers
+    reordered: int = 0  # late or duplicated frames (dropped)
+    seq_resets: int = 0  # the device's sequence restarted (reboot, reconnect)
+    skipped_bytes: int = 0  # bytes discarded while looking for the first valid frame
 
     @property
     def errors(self) -> int:

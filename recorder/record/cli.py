@@ -19,13 +19,25 @@ def add_parsers(sub) -> None:
     r.add_argument("--repo-id", help="USER/NAME")
     r.add_argument("--root", help="dataset folder (default datasets/recordings/USER/NAME)")
     r.add_argument("--resume", action="store_true", default=None, help="add episodes to an existing recording")
-    r.add_argument("--cameras", type=lambda s: [c for c in s.split(",") if c],
-                   help="comma-separated cameras to record (front, top, side)")
+    r.add_argument(
+        "--cameras",
+        type=lambda s: [c for c in s.split(",") if c],
+        help="comma-separated cameras to record (front, top, side)",
+    )
     pace = r.add_mutually_exclusive_group()
-    pace.add_argument("--realtime", dest="realtime", action="store_true", default=None,
-                      help="wall-clock pacing (default for serial and UDP gloves)")
-    pace.add_argument("--fast", dest="realtime", action="store_false",
-                      help="as fast as the glove delivers (default for the emulator and logs)")
+    pace.add_argument(
+        "--realtime",
+        dest="realtime",
+        action="store_true",
+        default=None,
+        help="wall-clock pacing (default for serial and UDP gloves)",
+    )
+    pace.add_argument(
+        "--fast",
+        dest="realtime",
+        action="store_false",
+        help="as fast as the glove delivers (default for the emulator and logs)",
+    )
     r.add_argument("--retarget", choices=("joint", "ik"))
     r.add_argument("--seed", type=int)
     r.add_argument("--glove-rate", dest="glove_rate_hz", type=float, help="the emulator's rate (Hz)")
@@ -40,16 +52,36 @@ def run_record(args: argparse.Namespace) -> int:
     from recorder.record.config import RecordConfig
     from recorder.record.recorder import record
 
-    keys = ("glove", "robot", "task", "fps", "episodes", "episode_time_s", "reset_time_s", "repo_id", "root",
-            "resume", "cameras", "realtime", "retarget", "seed", "glove_rate_hz", "glove_mode", "task_text", "log")
+    keys = (
+        "glove",
+        "robot",
+        "task",
+        "fps",
+        "episodes",
+        "episode_time_s",
+        "reset_time_s",
+        "repo_id",
+        "root",
+        "resume",
+        "cameras",
+        "realtime",
+        "retarget",
+        "seed",
+        "glove_rate_hz",
+        "glove_mode",
+        "task_text",
+        "log",
+    )
     cfg = RecordConfig.load(args.config, **{k: getattr(args, k) for k in keys})
     summary = record(cfg)
     if args.json:
         print(json.dumps(summary))
     else:
-        print(f"{summary['episodes_saved']} episode(s) saved; {summary['root']} now holds "
-              f"{summary['total_episodes']} episodes, {summary['total_frames']} frames "
-              f"(LeRobotDataset({summary['repo_id']!r}, root={summary['root']!r}))")
+        print(
+            f"{summary['episodes_saved']} episode(s) saved; {summary['root']} now holds "
+            f"{summary['total_episodes']} episodes, {summary['total_frames']} frames "
+            f"(LeRobotDataset({summary['repo_id']!r}, root={summary['root']!r}))"
+        )
     return 0
 
 
@@ -75,18 +107,33 @@ def run_rerecord(args: argparse.Namespace) -> int:
 
     info = read_log(args.log)  # a missing, foreign or damaged file: one-line GloverecError
     session = info.metadata.get("gloverec.session", {})
-    plan = [(m["fields"]["seed"], m["fields"]["device_start_s"], m["fields"]["frames"])
-            for m in info.marks if m["name"] == "episode_end" and m["fields"].get("device_start_s") is not None]
+    plan = [
+        (m["fields"]["seed"], m["fields"]["device_start_s"], m["fields"]["frames"])
+        for m in info.marks
+        if m["name"] == "episode_end" and m["fields"].get("device_start_s") is not None
+    ]
     if not plan:
         raise GloverecError(f"{args.log} holds no re-recordable episodes (no episode marks with device times)")
     if any(p[1] < 0 for p in plan):
         raise GloverecError(f"{args.log} comes from a glove without a device clock: its episodes cannot be re-timed")
-    cfg = RecordConfig.load(glove=f"mcap:{args.log}", repo_id=args.repo_id, root=args.root,
-                            robot=args.robot or session.get("robot"), task=args.task or session.get("task"),
-                            fps=args.fps or int(session.get("fps", 30)), retarget=args.retarget,
-                            cameras=args.cameras, realtime=False, episodes=len(plan), log=False)
+    cfg = RecordConfig.load(
+        glove=f"mcap:{args.log}",
+        repo_id=args.repo_id,
+        root=args.root,
+        robot=args.robot or session.get("robot"),
+        task=args.task or session.get("task"),
+        fps=args.fps or int(session.get("fps", 30)),
+        retarget=args.retarget,
+        cameras=args.cameras,
+        realtime=False,
+        episodes=len(plan),
+        log=False,
+    )
     summary = Recorder(cfg, plan=plan).run()
     summary["source_log"] = args.log
-    print(json.dumps(summary) if args.json else
-          f"re-recorded {summary['episodes_saved']} of {len(plan)} episode(s) from {args.log} into {summary['root']}")
+    print(
+        json.dumps(summary)
+        if args.json
+        else f"re-recorded {summary['episodes_saved']} of {len(plan)} episode(s) from {args.log} into {summary['root']}"
+    )
     return 0

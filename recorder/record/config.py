@@ -6,7 +6,6 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-
 from recorder import GloverecError
 from recorder.settings import load_values
 
@@ -28,7 +27,7 @@ class RecordConfig:
     resume: bool = False
     cameras: list = field(default_factory=list)
     image_size: list = field(default_factory=lambda: [128, 128])
-    realtime: bool | None = None   # None: real time for real gloves, fast for the emulator and logs
+    realtime: bool | None = None  # None: real time for real gloves, fast for the emulator and logs
     retarget: str = "joint"
     seed: int = 0
     glove_rate_hz: float = 200.0
@@ -37,7 +36,7 @@ class RecordConfig:
     task_text: str | None = None
 
     @classmethod
-    def load(cls, path: str | Path | None = None, **overrides) -> "RecordConfig":
+    def load(cls, path: str | Path | None = None, **overrides) -> RecordConfig:
         """Defaults, then the YAML file (configs/record/default.yaml unless ``path``), then ``overrides``."""
         source = Path(path) if path else DEFAULTS
         values = load_values(cls, source, bool(path), overrides, "record")

@@ -18,10 +18,29 @@ import tty
 
 NEXT, RERECORD, STOP, RESET = "next", "rerecord", "stop", "reset"
 
-_KEYS = {b"\x1b[C": NEXT, b"n": NEXT, b"\n": NEXT, b"\r": NEXT,
-         b"\x1b[D": RERECORD, b"r": RERECORD, b"\x1b": STOP, b"q": STOP, b"z": RESET}
-_LINES = {"next": NEXT, "n": NEXT, "": NEXT, "rerecord": RERECORD, "r": RERECORD, "stop": STOP, "q": STOP,
-          "zero": RESET, "reset": RESET, "z": RESET}
+_KEYS = {
+    b"\x1b[C": NEXT,
+    b"n": NEXT,
+    b"\n": NEXT,
+    b"\r": NEXT,
+    b"\x1b[D": RERECORD,
+    b"r": RERECORD,
+    b"\x1b": STOP,
+    b"q": STOP,
+    b"z": RESET,
+}
+_LINES = {
+    "next": NEXT,
+    "n": NEXT,
+    "": NEXT,
+    "rerecord": RERECORD,
+    "r": RERECORD,
+    "stop": STOP,
+    "q": STOP,
+    "zero": RESET,
+    "reset": RESET,
+    "z": RESET,
+}
 
 
 class Control:

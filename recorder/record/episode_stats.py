@@ -20,7 +20,7 @@ from contextlib import contextmanager
 
 import numpy as np
 
-QUANTILES = (0.01, 0.10, 0.50, 0.90, 0.99)   # lerobot's DEFAULT_QUANTILES and their keys q01 ... q99
+QUANTILES = (0.01, 0.10, 0.50, 0.90, 0.99)  # lerobot's DEFAULT_QUANTILES and their keys q01 ... q99
 KEYS = tuple(f"q{int(q * 100):02d}" for q in QUANTILES)
 
 
@@ -29,8 +29,13 @@ def vector_stats(data) -> dict[str, np.ndarray]:
     data = np.asarray(data)
     flat = data.reshape(len(data), -1)
     wide = flat.astype(np.float64)  # lerobot's float32 sqrt(E[x^2] - E[x]^2) cancels: 0.3 for a constant 283
-    stats = {"min": flat.min(axis=0), "max": flat.max(axis=0), "mean": wide.mean(axis=0),
-             "std": wide.std(axis=0), "count": np.array([len(data)])}
+    stats = {
+        "min": flat.min(axis=0),
+        "max": flat.max(axis=0),
+        "mean": wide.mean(axis=0),
+        "std": wide.std(axis=0),
+        "count": np.array([len(data)]),
+    }
     for key, value in zip(KEYS, np.quantile(wide, QUANTILES, axis=0)):
         stats[key] = value
     if data.ndim == 1:  # lerobot keeps the reduced axis of scalar features: shape (1,)

@@ -33,8 +33,11 @@ def dataset_features(env, use_videos: bool) -> dict:
     }
     h, w = env.config.image_size
     for cam in env.config.cameras:
-        feats[f"observation.images.{cam}"] = {"dtype": "video" if use_videos else "image", "shape": (h, w, 3),
-                                              "names": ["height", "width", "channels"]}
+        feats[f"observation.images.{cam}"] = {
+            "dtype": "video" if use_videos else "image",
+            "shape": (h, w, 3),
+            "names": ["height", "width", "channels"],
+        }
     for key in QUALITY:
         feats[key] = _vec([key.split(".", 1)[1]])
     for key in TIMES:

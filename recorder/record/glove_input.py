@@ -18,16 +18,16 @@ from recorder.link.sources import make_source
 from recorder.protocol import EventCode, EventFrame, PoseCompactFrame, PoseFrame, RawFrame
 from recorder.record.pose_track import PoseTrack
 
-TRANSITION_S = 0.8   # the emulated hand's move back to a demonstration's start pose
-LEAD_S = 0.5         # faster than real time, the emulator runs at most this far ahead of the loop's needs
+TRANSITION_S = 0.8  # the emulated hand's move back to a demonstration's start pose
+LEAD_S = 0.5  # faster than real time, the emulator runs at most this far ahead of the loop's needs
 
 
 class Sample(NamedTuple):
     """What the pose track keeps beside each pose."""
 
-    t_us: int               # device time stamp (-1: legacy JSON)
-    rx_ns: int              # host receive time
-    quality: float | None   # host fusion's disturbance estimate, None without host fusion
+    t_us: int  # device time stamp (-1: legacy JSON)
+    rx_ns: int  # host receive time
+    quality: float | None  # host fusion's disturbance estimate, None without host fusion
 
 
 class _TakenMotion:
@@ -39,7 +39,7 @@ class _TakenMotion:
         self.motion = motion
         self.rate_hz = motion.rate_hz
         self.lock = threading.Lock()
-        self.taken = 0      # samples the emulator took
+        self.taken = 0  # samples the emulator took
 
     @property
     def taken_s(self) -> float:
@@ -53,8 +53,9 @@ class _TakenMotion:
 
 
 class GloveInput:
-    def __init__(self, spec: str, fast: bool, *, rate_hz: float = 200.0, mode: str = "pose", seed: int = 0,
-                 fusion=None):
+    def __init__(
+        self, spec: str, fast: bool, *, rate_hz: float = 200.0, mode: str = "pose", seed: int = 0, fusion=None
+    ):
         """``fusion``: a SessionFusion (None: raw frames are refused)."""
         self.fast = fast
         self.fusion = fusion
@@ -77,11 +78,11 @@ class GloveInput:
         self.source = make_source(spec, realtime=not fast)
         self.spec = spec if self.emulator is None else "emulator"
         self.track = PoseTrack()
-        self.buttons: list[float] = []   # glove times of button presses not yet taken
+        self.buttons: list[float] = []  # glove times of button presses not yet taken
         self.frames = 0
 
     # ------------------------------------------------------------ lifecycle
-    def open(self) -> "GloveInput":
+    def open(self) -> GloveInput:
         self.source.open()
         if self.emulator is not None:
             if self.fast:

@@ -11,8 +11,16 @@ import numpy as np
 from recorder import GloverecError
 from recorder.record.store import read_sidecar
 
-COLUMNS = ("frames", "success", "glove_late", "glove_dropped", "loop_overruns", "jitter_ms_p99",
-           "latency_ms_p99", "retarget_error_mm_mean")
+COLUMNS = (
+    "frames",
+    "success",
+    "glove_late",
+    "glove_dropped",
+    "loop_overruns",
+    "jitter_ms_p99",
+    "latency_ms_p99",
+    "retarget_error_mm_mean",
+)
 
 
 def load_meta(repo_id: str, root: Path):
@@ -33,9 +41,15 @@ def episodes_table(repo_id: str, root: Path) -> list[dict]:
     for e in range(meta.total_episodes):
         ep = meta.episodes[e]
         s = side.get(e, {})
-        rows.append({"episode": e, "frames": int(ep["length"]), "seconds": round(ep["length"] / meta.fps, 2),
-                     "task": ep["tasks"][0] if len(ep["tasks"]) else "",
-                     **{k: s.get(k) for k in COLUMNS if k != "frames"}})
+        rows.append(
+            {
+                "episode": e,
+                "frames": int(ep["length"]),
+                "seconds": round(ep["length"] / meta.fps, 2),
+                "task": ep["tasks"][0] if len(ep["tasks"]) else "",
+                **{k: s.get(k) for k in COLUMNS if k != "frames"},
+            }
+        )
     return rows
 
 
@@ -86,7 +100,7 @@ def plot_episode(repo_id: str, root: Path, episode: int, out: Path) -> Path:
         ax.plot(t, np.degrees(state[:, s]), label="state", lw=1.2)
         ax.set_title(a_names[a], fontsize=8)
         ax.tick_params(labelsize=7)
-    for ax in list(axes.flat)[len(pairs):]:
+    for ax in list(axes.flat)[len(pairs) :]:
         ax.axis("off")
     axes.flat[0].legend(fontsize=7)
     fig.supxlabel("time (s)")
@@ -137,11 +151,20 @@ def run(args) -> int:
     head = ("ep", "frames", "s", "ok", "late", "drop", "overrun", "jitter99", "lat99", "retarget", "task")
     print(("{:>3} {:>6} {:>5} {:>3} {:>5} {:>5} {:>7} {:>8} {:>6} {:>8}  {}").format(*head))
     for r in rows:
+
         def f(v, nd=1):
             return "-" if v is None else (f"{v:.{nd}f}" if isinstance(v, float) else str(v))
-        print(f"{r['episode']:>3} {r['frames']:>6} {r['seconds']:>5} {('y' if r['success'] else 'n') if r['success'] is not None else '-':>3} "
-              f"{f(r['glove_late']):>5} {f(r['glove_dropped']):>5} {f(r['loop_overruns']):>7} "
-              f"{f(r['jitter_ms_p99'], 2):>8} {f(r['latency_ms_p99']):>6} {f(r['retarget_error_mm_mean']):>8}  {r['task']}")
+
+        print(
+            f"{r['episode']:>3} {r['frames']:>6} {r['seconds']:>5} {_yes_no(r['success']):>3} "
+            f"{f(r['glove_late']):>5} {f(r['glove_dropped']):>5} {f(r['loop_overruns']):>7} "
+            f"{f(r['jitter_ms_p99'], 2):>8} {f(r['latency_ms_p99']):>6} {f(r['retarget_error_mm_mean']):>8}  "
+            f"{r['task']}"
+        )
     if plot:
         print(f"plot of episode {args.episode}: {plot}")
     return 0
+
+
+def _yes_no(flag) -> str:
+    return "-" if flag is None else "y" if flag else "n"

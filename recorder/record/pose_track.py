@@ -13,10 +13,10 @@ from recorder import quat
 
 @dataclass
 class PoseAt:
-    quats: np.ndarray     # (16, 4) parent-relative quaternions at the asked time
-    newest_s: float       # sample time of the newest sample used (latency is measured from it)
-    held: bool            # no sample after the asked time yet: the newest pose was held (a late glove frame)
-    age_s: float          # asked time minus the newest sample time used (0 when interpolating)
+    quats: np.ndarray  # (16, 4) parent-relative quaternions at the asked time
+    newest_s: float  # sample time of the newest sample used (latency is measured from it)
+    held: bool  # no sample after the asked time yet: the newest pose was held (a late glove frame)
+    age_s: float  # asked time minus the newest sample time used (0 when interpolating)
     extra: object = None  # what was pushed with the newest sample used
 
 

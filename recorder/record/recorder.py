@@ -37,8 +37,8 @@ class EpisodeStats:
     """What the loop counts during one episode; stored in the episode's sidecar metadata."""
 
     frames: int = 0
-    held: int = 0                 # frames whose glove pose had to be held (the glove was late)
-    overruns: int = 0             # ticks that started more than one period late
+    held: int = 0  # frames whose glove pose had to be held (the glove was late)
+    overruns: int = 0  # ticks that started more than one period late
     jitter_s: list = field(default_factory=list)
     latency_s: list = field(default_factory=list)
     retarget_mm: list = field(default_factory=list)
@@ -51,11 +51,17 @@ class EpisodeStats:
 
         gaps = decode["gaps"] - self.decode0.get("gaps", 0)
         drops = queue_drops - self.drops0
-        return {"frames": self.frames, "glove_dropped": gaps + drops, "glove_late": self.held,
-                "glove_errors": decode["errors"] - self.decode0.get("errors", 0),
-                "loop_overruns": self.overruns, "jitter_ms_p99": pct(self.jitter_s, 99),
-                "latency_ms_p50": pct(self.latency_s, 50), "latency_ms_p99": pct(self.latency_s, 99),
-                "retarget_error_mm_mean": round(float(np.mean(self.retarget_mm)), 3) if self.retarget_mm else None}
+        return {
+            "frames": self.frames,
+            "glove_dropped": gaps + drops,
+            "glove_late": self.held,
+            "glove_errors": decode["errors"] - self.decode0.get("errors", 0),
+            "loop_overruns": self.overruns,
+            "jitter_ms_p99": pct(self.jitter_s, 99),
+            "latency_ms_p50": pct(self.latency_s, 50),
+            "latency_ms_p99": pct(self.latency_s, 99),
+            "retarget_error_mm_mean": round(float(np.mean(self.retarget_mm)), 3) if self.retarget_mm else None,
+        }
 
 
 @contextmanager
@@ -85,8 +91,11 @@ class Recorder:
         self.fast = cfg.is_fast
         self.out = out
         try:
-            env_opts = {"control_hz": float(cfg.fps), "cameras": tuple(cfg.cameras),
-                        "image_size": tuple(cfg.image_size)}
+            env_opts = {
+                "control_hz": float(cfg.fps),
+                "cameras": tuple(cfg.cameras),
+                "image_size": tuple(cfg.image_size),
+            }
             if cfg.episode_time_s:
                 env_opts["episode_s"] = float(cfg.episode_time_s)
             self.env = envs.make(cfg.task, cfg.robot, **env_opts)
@@ -101,20 +110,28 @@ class Recorder:
 
             self.demonstrator = make_demonstrator(cfg.task)
         self.features = dataset_features(self.u, use_videos=bool(cfg.cameras))
-        self.store = EpisodeStore(cfg.root_path, cfg.repo_id, cfg.fps, self.features,
-                                  robot_type=cfg.robot, resume=cfg.resume, use_videos=bool(cfg.cameras))
+        self.store = EpisodeStore(
+            cfg.root_path,
+            cfg.repo_id,
+            cfg.fps,
+            self.features,
+            robot_type=cfg.robot,
+            resume=cfg.resume,
+            use_videos=bool(cfg.cameras),
+        )
         self.writer = EpisodeWriter(self.store)  # forked now: before the glove, the log or any thread opens
         try:
             self._open_session(control)
         except BaseException:
-            self.writer.close()   # an idle writer: ends at once (else the exit would wait for it forever)
+            self.writer.close()  # an idle writer: ends at once (else the exit would wait for it forever)
             self.store.close()
             raise
 
     def _open_session(self, control) -> None:
         cfg = self.cfg
-        self.glove = GloveInput(cfg.glove, self.fast, rate_hz=cfg.glove_rate_hz, mode=cfg.glove_mode,
-                                seed=cfg.seed, fusion=self._fusion())
+        self.glove = GloveInput(
+            cfg.glove, self.fast, rate_hz=cfg.glove_rate_hz, mode=cfg.glove_mode, seed=cfg.seed, fusion=self._fusion()
+        )
         self.glove.fusion.keep_in(self.store.work, self._say)  # meta/gloverec/calibration.json, before any episode
         self.logger = None
         self.log_rel = None
@@ -134,7 +151,7 @@ class Recorder:
         if self.cfg.glove.startswith("mcap:"):
             from recorder.log.playback import log_calibration
 
-            record = log_calibration(self.cfg.glove[len("mcap:"):])
+            record = log_calibration(self.cfg.glove[len("mcap:") :])
             if record is not None:
                 return SessionFusion.from_record(record, self.cfg.glove)
         return SessionFusion()
@@ -145,9 +162,17 @@ class Recorder:
         logs = self.store.work / "logs"
         logs.mkdir(parents=True, exist_ok=True)
         name = time.strftime("session-%Y%m%d-%H%M%S.mcap")
-        self.logger = McapLogger(logs / name, {"source": self.cfg.glove, "repo_id": self.cfg.repo_id,
-                                               "robot": self.cfg.robot, "task": self.cfg.task,
-                                               "fps": str(self.cfg.fps)}, calibration=self.glove.fusion.record)
+        self.logger = McapLogger(
+            logs / name,
+            {
+                "source": self.cfg.glove,
+                "repo_id": self.cfg.repo_id,
+                "robot": self.cfg.robot,
+                "task": self.cfg.task,
+                "fps": str(self.cfg.fps),
+            },
+            calibration=self.glove.fusion.record,
+        )
         self.glove.fusion.on_record(self.logger.set_calibration)  # a real glove's: once its first frames came
         self.glove.source.taps.append(self.logger)
         self.log_rel = f"logs/{name}"
@@ -163,8 +188,10 @@ class Recorder:
             gc.freeze()  # the heap of torch, lerobot, mujoco (~0.3 s to traverse): never looked at again
         try:
             self.glove.open()
-            self._say(f"recording {cfg.episodes} episode(s) of {cfg.task} on {cfg.robot} from {self.glove.spec} "
-                      f"({'faster than real time' if self.fast else 'real time'}) into {cfg.root_path}")
+            self._say(
+                f"recording {cfg.episodes} episode(s) of {cfg.task} on {cfg.robot} from {self.glove.spec} "
+                f"({'faster than real time' if self.fast else 'real time'}) into {cfg.root_path}"
+            )
             while recorded < (cfg.episodes if self.plan is None else len(self.plan) + recorded):
                 index = self.store.next_index
                 outcome, result = self._one_episode(index)
@@ -185,20 +212,27 @@ class Recorder:
         finally:
             self.close()
         saved = self.saved
-        return {"root": str(cfg.root_path), "repo_id": cfg.repo_id, "episodes_saved": len(saved),
-                "total_episodes": self.store.num_episodes + len(saved),   # this process' store: as opened
-                "total_frames": self.store.num_frames + sum(s["frames"] for s in saved),
-                "rerecorded": rerecorded, "lost": lost,
-                "success_rate": round(float(np.mean([s["success"] for s in saved])), 3) if saved else None,
-                "log": self.log_rel}
+        return {
+            "root": str(cfg.root_path),
+            "repo_id": cfg.repo_id,
+            "episodes_saved": len(saved),
+            "total_episodes": self.store.num_episodes + len(saved),  # this process' store: as opened
+            "total_frames": self.store.num_frames + sum(s["frames"] for s in saved),
+            "rerecorded": rerecorded,
+            "lost": lost,
+            "success_rate": round(float(np.mean([s["success"] for s in saved])), 3) if saved else None,
+            "log": self.log_rel,
+        }
 
     def _report_saved(self, wait: bool = False) -> None:
         """Say which episodes the writer process has saved (published) since the last call."""
         for index, result in self.writer.results(wait):
             self.saved.append(result)
-            self._say(f"episode {index} saved: {result['frames']} frames, success={result['success']}, "
-                      f"late {result['glove_late']}, dropped {result['glove_dropped']}, "
-                      f"latency p99 {result['latency_ms_p99']} ms")
+            self._say(
+                f"episode {index} saved: {result['frames']} frames, success={result['success']}, "
+                f"late {result['glove_late']}, dropped {result['glove_dropped']}, "
+                f"latency p99 {result['latency_ms_p99']} ms"
+            )
 
     def close(self) -> None:
         self.glove.close()
@@ -267,8 +301,9 @@ class Recorder:
             if self.fast and g.track.newest_s is not None:
                 g.wait_past(g.now() + self.period)  # let glove time advance
 
-    def _record(self, index: int, seed: int, obs: dict, start: float, frames: int | None = None
-                ) -> tuple[str, dict | None]:
+    def _record(
+        self, index: int, seed: int, obs: dict, start: float, frames: int | None = None
+    ) -> tuple[str, dict | None]:
         cfg, g, u = self.cfg, self.glove, self.u
         src = g.source
         stats = EpisodeStats(decode0=dict(src.decoder.stats.as_dict()), drops0=src.stats().queue_drops)
@@ -348,13 +383,29 @@ class Recorder:
             self.store.discard_episode()
             return outcome if outcome == "ended" else "stop", None
         decode = src.decoder.stats.as_dict()
-        result = {"task": self.task_text, "seed": seed, "success": success, "robot": cfg.robot,
-                  "env_task": cfg.task, "fps": cfg.fps, "glove": g.spec, "realtime": not self.fast,
-                  "retarget": cfg.retarget, "start_glove_time_s": start, "start_device_time_s": device_start,
-                  **stats.summary(decode, src.stats().queue_drops)}
+        result = {
+            "task": self.task_text,
+            "seed": seed,
+            "success": success,
+            "robot": cfg.robot,
+            "env_task": cfg.task,
+            "fps": cfg.fps,
+            "glove": g.spec,
+            "realtime": not self.fast,
+            "retarget": cfg.retarget,
+            "start_glove_time_s": start,
+            "start_device_time_s": device_start,
+            **stats.summary(decode, src.stats().queue_drops),
+        }
         if self.logger is not None:
-            self.logger.mark("episode_end", episode=index, seed=seed, frames=stats.frames, success=success,
-                             device_start_s=device_start)
+            self.logger.mark(
+                "episode_end",
+                episode=index,
+                seed=seed,
+                frames=stats.frames,
+                success=success,
+                device_start_s=device_start,
+            )
             self.logger.flush()
             result["log"] = {"file": self.log_rel, **_log_range(self.logger, start, g, stats.frames, self.period)}
         self.writer.submit(self.store.take_episode(), result)
@@ -393,9 +444,11 @@ class Recorder:
             return
         self._last_line = time.monotonic()
         lat = np.percentile(stats.latency_s, 99) * 1e3 if stats.latency_s else 0.0
-        self.out.write(f"\r\x1b[Kepisode {index}  frame {k + 1}/{n}  late {stats.held}  "
-                       f"overruns {stats.overruns}  latency p99 {lat:.1f} ms  "
-                       f"glove {'up' if self.glove.connected else 'DOWN'}")
+        self.out.write(
+            f"\r\x1b[Kepisode {index}  frame {k + 1}/{n}  late {stats.held}  "
+            f"overruns {stats.overruns}  latency p99 {lat:.1f} ms  "
+            f"glove {'up' if self.glove.connected else 'DOWN'}"
+        )
         self.out.flush()
 
 

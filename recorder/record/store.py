@@ -29,15 +29,15 @@ from recorder import GloverecError
 from recorder.record.episode_stats import lerobot_save_speedups
 
 STATE_SUFFIX = ".gloverec"
-SIDECAR = "meta/gloverec/episodes.jsonl"   # our per-episode metadata, one JSON object per line
-IMMUTABLE = ("data/", "meta/episodes/", "videos/", "logs/")   # never rewritten once closed (session logs: only
+SIDECAR = "meta/gloverec/episodes.jsonl"  # our per-episode metadata, one JSON object per line
+IMMUTABLE = ("data/", "meta/episodes/", "videos/", "logs/")  # never rewritten once closed (session logs: only
 # appended, so a snapshot's hard link sees the ranges of its episodes and, later, more). The live session log is
 # not fsynced at each publish (an fsync of a file being written stalls the glove reader's writes to it for tens
 # of milliseconds); the logger fsyncs it when the session ends, and a log cut short by power loss still reads.
-TRANSIENT = ("images/",)                   # lerobot's temporary PNGs for video encoding
+TRANSIENT = ("images/",)  # lerobot's temporary PNGs for video encoding
 KEEP_SNAPSHOTS = 2
-LOCK_WAIT_S = 10.0   # how long a session waits for another one (e.g. the writer of a killed one) to finish
-TINY_MB = 1e-6   # lerobot file-size limit in the working copy: forces one file per episode
+LOCK_WAIT_S = 10.0  # how long a session waits for another one (e.g. the writer of a killed one) to finish
+TINY_MB = 1e-6  # lerobot file-size limit in the working copy: forces one file per episode
 
 
 def state_dir(root: Path) -> Path:
@@ -72,7 +72,7 @@ def _clone(src: Path, dst: Path, published_info: bool, durable: set | None = Non
         elif published_info and rel == "meta/info.json":
             from lerobot.datasets.utils import DEFAULT_DATA_FILE_SIZE_IN_MB, DEFAULT_VIDEO_FILE_SIZE_IN_MB
 
-            info = json.loads(p.read_text())   # the working copy's tiny file limits are not for readers
+            info = json.loads(p.read_text())  # the working copy's tiny file limits are not for readers
             info["data_files_size_in_mb"] = DEFAULT_DATA_FILE_SIZE_IN_MB
             info["video_files_size_in_mb"] = DEFAULT_VIDEO_FILE_SIZE_IN_MB
             out.write_text(json.dumps(info, indent=4))
@@ -107,8 +107,16 @@ def _lock(path: Path, root) -> int:
 class EpisodeStore:
     """Owns ROOT and its state directory. ``dataset`` is the lerobot LeRobotDataset being written."""
 
-    def __init__(self, root: str | Path, repo_id: str, fps: int, features: dict, robot_type: str,
-                 resume: bool = False, use_videos: bool = True):
+    def __init__(
+        self,
+        root: str | Path,
+        repo_id: str,
+        fps: int,
+        features: dict,
+        robot_type: str,
+        resume: bool = False,
+        use_videos: bool = True,
+    ):
         import datasets
 
         datasets.disable_progress_bars()  # one "Map" bar per episode says nothing to a person recording
@@ -116,7 +124,7 @@ class EpisodeStore:
         self.state = state_dir(self.root)
         self.work = self.state / "work"
         self.snapshots = self.state / "snapshots"
-        self._durable: set[str] = set()   # linked files already fsynced (by an earlier publish)
+        self._durable: set[str] = set()  # linked files already fsynced (by an earlier publish)
         exists = self.root.exists() or self.root.is_symlink()
         if exists and not resume:
             raise GloverecError(f"{root} already exists: pass --resume to add episodes, or choose another --root")
@@ -136,15 +144,22 @@ class EpisodeStore:
         if not resume and (self.root.exists() or self.root.is_symlink()):  # appeared while we waited
             raise GloverecError(f"{self.root} already exists: pass --resume to add episodes, or choose another --root")
         if resume and self._latest() is not None:
-            shutil.rmtree(self.work, ignore_errors=True)          # what the interrupted session left
+            shutil.rmtree(self.work, ignore_errors=True)  # what the interrupted session left
             _clone(self._latest(), self.work, published_info=False)
             self.dataset = LeRobotDataset(repo_id, root=self.work)
             self._check_compatible(fps, features, robot_type)
         else:
             shutil.rmtree(self.work, ignore_errors=True)
             self.snapshots.mkdir(parents=True, exist_ok=True)
-            self.dataset = LeRobotDataset.create(repo_id, fps, features, root=self.work, robot_type=robot_type,
-                                                 use_videos=use_videos, metadata_buffer_size=1)
+            self.dataset = LeRobotDataset.create(
+                repo_id,
+                fps,
+                features,
+                root=self.work,
+                robot_type=robot_type,
+                use_videos=use_videos,
+                metadata_buffer_size=1,
+            )
         self.dataset.meta.update_chunk_settings(data_files_size_in_mb=TINY_MB, video_files_size_in_mb=TINY_MB)
 
     # ------------------------------------------------------------------ state
@@ -162,8 +177,9 @@ class EpisodeStore:
         if meta.fps != fps:
             raise GloverecError(f"cannot resume: the dataset is {meta.fps} fps, not {fps}")
         if meta.robot_type != robot_type:
-            raise GloverecError(f"cannot resume: the dataset was recorded with robot {meta.robot_type!r}, "
-                                f"not {robot_type!r}")
+            raise GloverecError(
+                f"cannot resume: the dataset was recorded with robot {meta.robot_type!r}, not {robot_type!r}"
+            )
         mine = {k: (v["dtype"], tuple(v["shape"])) for k, v in features.items()}
         theirs = {k: (v["dtype"], tuple(v["shape"])) for k, v in meta.features.items() if k in mine}
         if mine != theirs:
@@ -193,7 +209,7 @@ class EpisodeStore:
         ds = self.dataset
         index = self.next_index
         ds.clear_episode_buffer()
-        for key in ds.meta.video_keys:   # lerobot's clear only removes the PNGs of image features
+        for key in ds.meta.video_keys:  # lerobot's clear only removes the PNGs of image features
             shutil.rmtree(ds._get_image_file_dir(index, key), ignore_errors=True)
         ds.episode_buffer = ds.create_episode_buffer(episode_index=index)
 
@@ -211,7 +227,7 @@ class EpisodeStore:
         index = ds.meta.total_episodes
         with lerobot_save_speedups(ds.features):
             ds.save_episode(episode_data=episode)
-        ds._close_writer()        # footers: the episode's parquet files are complete and never reopened
+        ds._close_writer()  # footers: the episode's parquet files are complete and never reopened
         ds.meta._close_writer()
         ds._writer_closed_for_reading = True
         side = self.work / SIDECAR
@@ -249,7 +265,7 @@ class EpisodeStore:
         self.dataset._close_writer()
         self.dataset.meta._close_writer()
         if self._lock is not None:
-            os.close(self._lock)   # a writer process forked from here holds it until it exits too
+            os.close(self._lock)  # a writer process forked from here holds it until it exits too
             self._lock = None
 
 

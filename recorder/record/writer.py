@@ -110,5 +110,6 @@ class EpisodeWriter:
 
     def _died(self):
         self.pending = 0
-        raise GloverecError(f"the episode writer process died (exit code {self._proc.exitcode}); "
-                            "the episodes saved so far are intact")
+        raise GloverecError(
+            f"the episode writer process died (exit code {self._proc.exitcode}); the episodes saved so far are intact"
+        )

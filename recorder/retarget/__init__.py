@@ -15,5 +15,13 @@ from recorder.retarget.config import (
 )
 from recorder.retarget.retargeter import MODES, Retargeter
 
-__all__ = ["MODES", "Coupling", "IKConfig", "RetargetConfig", "RetargetConfigError", "Retargeter",
-           "load_retarget_config", "tendon_couplings"]
+__all__ = [
+    "MODES",
+    "Coupling",
+    "IKConfig",
+    "RetargetConfig",
+    "RetargetConfigError",
+    "Retargeter",
+    "load_retarget_config",
+    "tendon_couplings",
+]

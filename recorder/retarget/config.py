@@ -41,11 +41,11 @@ class Coupling:
 
 @dataclass(frozen=True)
 class IKConfig:
-    posture_cost: float = 0.05   # pull toward the joint-mapped pose (keeps the solution human-like)
+    posture_cost: float = 0.05  # pull toward the joint-mapped pose (keeps the solution human-like)
     tip_cost: float = 1.0
-    iterations: int = 8          # per frame at most; the solver is warm-started from the last frame
-    tolerance_m: float = 0.001   # stop when every fingertip is this close to its target
-    damping: float = 1e-3        # Levenberg-Marquardt damping
+    iterations: int = 8  # per frame at most; the solver is warm-started from the last frame
+    tolerance_m: float = 0.001  # stop when every fingertip is this close to its target
+    damping: float = 1e-3  # Levenberg-Marquardt damping
     solver: str = "daqp"
 
 
@@ -56,11 +56,11 @@ class RetargetConfig:
 
     source: str
     actuators: tuple
-    A: np.ndarray            # (nu, 20)
-    b: np.ndarray            # (nu,)
-    lo: np.ndarray           # (nu,)
-    hi: np.ndarray           # (nu,)
-    constant: np.ndarray     # (nu,) bool: actuators with no human source
+    A: np.ndarray  # (nu, 20)
+    b: np.ndarray  # (nu,)
+    lo: np.ndarray  # (nu,)
+    hi: np.ndarray  # (nu,)
+    constant: np.ndarray  # (nu,) bool: actuators with no human source
     tip_scale: float = 1.0
     tip_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
     couplings: tuple = ()
@@ -76,8 +76,11 @@ def _number(value, where: str, source: str) -> float:
 def tendon_couplings(model: mujoco.MjModel) -> list[Coupling]:
     """Couplings the model defines as fixed tendons that tie two joints (range within ±0.01 of zero), as the
     Shadow hand's J1/J0: c_a q_a + c_b q_b ≈ 0, so the unactuated joint follows the actuated one."""
-    actuated = {int(model.actuator_trnid[i, 0]) for i in range(model.nu)
-                if model.actuator_trntype[i] == mujoco.mjtTrn.mjTRN_JOINT}
+    actuated = {
+        int(model.actuator_trnid[i, 0])
+        for i in range(model.nu)
+        if model.actuator_trntype[i] == mujoco.mjtTrn.mjTRN_JOINT
+    }
     out = []
     for t in range(model.ntendon):
         adr, num = model.tendon_adr[t], model.tendon_num[t]
@@ -88,7 +91,7 @@ def tendon_couplings(model: mujoco.MjModel) -> list[Coupling]:
             continue
         if any(model.wrap_type[adr + k] != mujoco.mjtWrap.mjWRAP_JOINT for k in range(2)):
             continue
-        (ja, jb), (ca, cb) = model.wrap_objid[adr:adr + 2], model.wrap_prm[adr:adr + 2]
+        (ja, jb), (ca, cb) = model.wrap_objid[adr : adr + 2], model.wrap_prm[adr : adr + 2]
         if ja in actuated and jb not in actuated:
             ja, jb, ca, cb = jb, ja, cb, ca
         elif not (jb in actuated and ja not in actuated):
@@ -146,13 +149,15 @@ def load_retarget_config(raw: dict | None, model: mujoco.MjModel, source: str = 
             lim = entry["limits"]
             if not isinstance(lim, (list, tuple)) or len(lim) != 2:
                 raise RetargetConfigError(f"{at}.limits: expected [lo, hi] in radians, got {lim!r}")
-            l, h = (_number(v, f"{at}.limits", source) for v in lim)
-            if not l < h:
-                raise RetargetConfigError(f"{at}.limits: lo {l:g} must be below hi {h:g}")
-            if l < ctrl[i, 0] - 1e-6 or h > ctrl[i, 1] + 1e-6:
-                raise RetargetConfigError(f"{at}.limits: [{l:g}, {h:g}] out of the actuator's ctrl range "
-                                          f"[{ctrl[i, 0]:g}, {ctrl[i, 1]:g}]")
-            lo[i], hi[i] = l, h
+            low, high = (_number(v, f"{at}.limits", source) for v in lim)
+            if not low < high:
+                raise RetargetConfigError(f"{at}.limits: lo {low:g} must be below hi {high:g}")
+            if low < ctrl[i, 0] - 1e-6 or high > ctrl[i, 1] + 1e-6:
+                raise RetargetConfigError(
+                    f"{at}.limits: [{low:g}, {high:g}] out of the actuator's ctrl range "
+                    f"[{ctrl[i, 0]:g}, {ctrl[i, 1]:g}]"
+                )
+            lo[i], hi[i] = low, high
 
     tips = raw.get("tips", {}) or {}
     if not isinstance(tips, dict) or set(tips) - {"scale", "offset"}:
@@ -173,7 +178,9 @@ def load_retarget_config(raw: dict | None, model: mujoco.MjModel, source: str = 
             raise RetargetConfigError(f"{at}: expected {{joint: name, leader: name, ratio: r}}")
         for key in ("joint", "leader"):
             if c[key] not in joint_names:
-                raise RetargetConfigError(f"{at}.{key}: unknown joint {c[key]!r}; valid: {', '.join(sorted(joint_names))}")
+                raise RetargetConfigError(
+                    f"{at}.{key}: unknown joint {c[key]!r}; valid: {', '.join(sorted(joint_names))}"
+                )
         couplings.append(Coupling(c["joint"], c["leader"], _number(c["ratio"], f"{at}.ratio", source)))
 
     ik_raw = raw.get("ik", {}) or {}
@@ -181,6 +188,10 @@ def load_retarget_config(raw: dict | None, model: mujoco.MjModel, source: str = 
     extra = sorted(set(ik_raw) - set(fields))
     if extra:
         raise RetargetConfigError(f"{where}.ik: unknown key(s) {', '.join(extra)}; valid: {', '.join(fields)}")
-    ik = IKConfig(**{k: (v if k == "solver" else int(v) if k == "iterations" else _number(v, f"{where}.ik.{k}", source))
-                     for k, v in ik_raw.items()})
+    ik = IKConfig(
+        **{
+            k: (v if k == "solver" else int(v) if k == "iterations" else _number(v, f"{where}.ik.{k}", source))
+            for k, v in ik_raw.items()
+        }
+    )
     return RetargetConfig(source, actuators, A, b, lo, hi, constant, scale, offset, tuple(couplings), ik)

@@ -51,8 +51,12 @@ def fit(robot: str, samples: int = 400, actuators=None, seed: int = 0) -> dict:
         X[k::3, 1 + k] = 1.0
     s, *o = np.linalg.lstsq(X, rob.reshape(-1), rcond=None)[0]
     ik = Retargeter(robot, "ik", base_rotation=False)
-    ik.config = dataclasses.replace(ik.config, tip_scale=float(s), tip_offset=np.array(o),
-                                    ik=dataclasses.replace(c.ik, iterations=30, posture_cost=0.01))
+    ik.config = dataclasses.replace(
+        ik.config,
+        tip_scale=float(s),
+        tip_offset=np.array(o),
+        ik=dataclasses.replace(c.ik, iterations=30, posture_cost=0.01),
+    )
     ik.ik.config = ik.config.ik
     ik.ik.posture.set_cost(np.where(ik.ik.posture.cost > 1, ik.ik.posture.cost, 0.01))
     # 2. IK targets per pose
@@ -70,8 +74,10 @@ def fit(robot: str, samples: int = 400, actuators=None, seed: int = 0) -> dict:
         cols = [j for j, n in enumerate(JOINTS) if n.split("_")[0] in fingers and not n.endswith("dip")]
         X = np.column_stack((poses[:, cols], np.ones(len(poses))))
         w = np.linalg.lstsq(X, targets[:, i], rcond=1e-6)[0]
-        fitted[name] = ({JOINTS[j]: round(float(v), 3) for j, v in zip(cols, w[:-1]) if abs(v) > 1e-3},
-                        round(float(w[-1]), 3))
+        fitted[name] = (
+            {JOINTS[j]: round(float(v), 3) for j, v in zip(cols, w[:-1]) if abs(v) > 1e-3},
+            round(float(w[-1]), 3),
+        )
     A, b = c.A.copy(), c.b.copy()
     for name, (src, off) in fitted.items():
         i = c.actuators.index(name)
@@ -83,9 +89,12 @@ def fit(robot: str, samples: int = 400, actuators=None, seed: int = 0) -> dict:
     before.config = dataclasses.replace(c, tip_scale=float(s), tip_offset=np.array(o))
     after = Retargeter(robot, "joint", base_rotation=False)
     after.config = dataclasses.replace(before.config, A=A, b=b)
-    return {"tips": {"scale": round(float(s), 3), "offset": [round(float(v), 4) for v in o]},
-            "joints": fitted, "error_before_m": mean_tip_error(before, poses),
-            "error_after_m": mean_tip_error(after, poses)}
+    return {
+        "tips": {"scale": round(float(s), 3), "offset": [round(float(v), 4) for v in o]},
+        "joints": fitted,
+        "error_before_m": mean_tip_error(before, poses),
+        "error_after_m": mean_tip_error(after, poses),
+    }
 
 
 def main(argv=None) -> None:
@@ -95,8 +104,10 @@ def main(argv=None) -> None:
     p.add_argument("--actuators", help="comma-separated actuator names (default: all with a human source)")
     args = p.parse_args(argv)
     out = fit(args.robot, args.samples, args.actuators.split(",") if args.actuators else None)
-    print(f"# mean fingertip error on {args.samples} poses: current map {out['error_before_m'] * 1000:.1f} mm, "
-          f"fitted {out['error_after_m'] * 1000:.1f} mm")
+    print(
+        f"# mean fingertip error on {args.samples} poses: current map {out['error_before_m'] * 1000:.1f} mm, "
+        f"fitted {out['error_after_m'] * 1000:.1f} mm"
+    )
     print(f"  tips: {{scale: {out['tips']['scale']}, offset: {out['tips']['offset']}}}")
     print("  joints:")
     for name, (src, off) in out["joints"].items():

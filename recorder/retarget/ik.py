@@ -21,8 +21,7 @@ class FingertipIK:
         self.model = model
         self.config = config
         self.configuration = mink.Configuration(model)
-        self.tips = [mink.FrameTask(s, "site", position_cost=config.tip_cost, orientation_cost=0.0)
-                     for s in tip_sites]
+        self.tips = [mink.FrameTask(s, "site", position_cost=config.tip_cost, orientation_cost=0.0) for s in tip_sites]
         self.posture = mink.PostureTask(model, cost=posture_cost)
         self.tasks = [*self.tips, self.posture]
         self.constraints = [mink.EqualityConstraintTask(model, cost=1.0)] if model.neq else None
@@ -43,9 +42,16 @@ class FingertipIK:
         for task, p in zip(self.tips, targets):
             task.set_target(mink.SE3.from_translation(p))
         n = 0
-        for n in range(1, self.config.iterations + 1):
-            v = mink.solve_ik(conf, self.tasks, 1.0, self.config.solver, damping=self.config.damping,
-                              limits=self.limits, constraints=self.constraints)
+        for n in range(1, self.config.iterations + 1):  # noqa: B007  (n is the iteration count returned)
+            v = mink.solve_ik(
+                conf,
+                self.tasks,
+                1.0,
+                self.config.solver,
+                damping=self.config.damping,
+                limits=self.limits,
+                constraints=self.constraints,
+            )
             conf.integrate_inplace(v, 1.0)
             err = np.linalg.norm(conf.data.site_xpos[self._site_ids] - targets, axis=1)
             if err.max() < self.config.tolerance_m or np.abs(v).max() < 1e-4:

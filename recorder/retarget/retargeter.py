@@ -27,8 +27,15 @@ class Retargeter:
     the palm rotation vector (3,) when ``base_rotation``. info: tip_error (5,) m per finger (robot fingertip
     vs scaled human fingertip, palm frame), tip_error_mean, ik_iterations, joint_targets (nu,)."""
 
-    def __init__(self, robot="glovehand", mode: str = "joint", *, base_rotation: bool = True,
-                 palm_reference: str = "first", hand_size: HandSize = HandSize()):
+    def __init__(
+        self,
+        robot="glovehand",
+        mode: str = "joint",
+        *,
+        base_rotation: bool = True,
+        palm_reference: str = "first",
+        hand_size: HandSize = HandSize(),
+    ):
         from envs.robots import Robot, load_robot
 
         if mode not in MODES:
@@ -41,12 +48,12 @@ class Retargeter:
         self.palm_reference = palm_reference
         self.hand_size = hand_size
         self.human = HumanHandFK(hand_size)
-        cfg = self.config = load_retarget_config(self.robot.config.retarget, self.robot.model,
-                                                 self.robot.config.source)
+        cfg = self.config = load_retarget_config(self.robot.config.retarget, self.robot.model, self.robot.config.source)
         spec = self.robot.spec()
         for c in cfg.couplings:  # couplings as joint equalities: exact in FK, hard constraints in IK
-            spec.add_equality(type=mujoco.mjtEq.mjEQ_JOINT, name1=c.joint, name2=c.leader,
-                              data=[0.0, c.ratio] + [0.0] * 10)
+            spec.add_equality(
+                type=mujoco.mjtEq.mjEQ_JOINT, name1=c.joint, name2=c.leader, data=[0.0, c.ratio] + [0.0] * 10
+            )
         self.model = m = spec.compile()
         self.data = mujoco.MjData(m)
         self.nu = m.nu
@@ -125,6 +132,10 @@ class Retargeter:
         if self.base_rotation:
             rv = np.zeros(3) if palm_quat is None else self.palm_rotvec(palm_quat)
             action = np.concatenate((ctrl, rv))
-        info = {"tip_error": err, "tip_error_mean": float(err.mean()), "ik_iterations": iterations,
-                "joint_targets": ctrl}
+        info = {
+            "tip_error": err,
+            "tip_error_mean": float(err.mean()),
+            "ik_iterations": iterations,
+            "joint_targets": ctrl,
+        }
         return action.astype(np.float32), info

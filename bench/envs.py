@@ -31,7 +31,7 @@ from _common import write_results  # noqa: E402
 
 import envs  # noqa: E402
 from recorder.demonstrator.rollout import run_episode, success_rate  # noqa: E402
-from recorder.emulator.motion import Motion  # noqa: E402
+from recorder.hand.motion import Motion  # noqa: E402
 from recorder.retarget import Retargeter  # noqa: E402
 
 ROBOTS = ("glovehand", "shadow")

@@ -2,7 +2,7 @@
 
 For each rate (200 Hz, 1 kHz) and motion ("gestures", "random"): a SyntheticGlove with datasheet noise and
 temperature-drifting bias (recorder/emulator defaults) whose wearer first runs the calibration procedure
-(recorder/fusion/emulated.py, 17 s), then 60 s of motion, which is what is scored. Every estimator gets the same
+(recorder/emulator/procedure.py, 17 s), then 60 s of motion, which is what is scored. Every estimator gets the same
 calibration (gyro bias, accelerometer offsets, sensor-to-segment alignment, reference pose) and the same hand
 model (joint dimensionality, limits, eq. 3.3):
 - ours: HostFusion with each filter (complementary = the thesis' filter, mahony = Santaera Alg. 1, relative =
@@ -32,7 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench._common import RESULTS, write_results  # noqa: E402
 from recorder import quat  # noqa: E402
-from recorder.fusion import emulated  # noqa: E402
+from recorder.emulator import procedure as emulated  # noqa: E402
 from recorder.fusion.block import filter_block  # noqa: E402
 from recorder.fusion.gravity import gain_factor  # noqa: E402
 from recorder.fusion.host import FusionConfig, HostFusion  # noqa: E402
@@ -143,23 +143,20 @@ def run_ours(d: dict, name: str, full: bool, runs: int) -> dict:
 
 
 def filter_cost(name: str, rate: int, runs: int, T: int = 20000) -> dict:
-    """The block API alone (numba) and the numpy reference, per 12-IMU step, on random motion."""
+    """The block API alone (``filter_block``, the numba kernels), per 12-IMU step, on random motion."""
     glove = emulated.SyntheticGlove("random", rate, 7)
     b = glove.next_block(T)
     a = b.raw[..., 0:3] * (16 / 32768.0)
     g = np.radians(b.raw[..., 3:6] * (2000 / 32768.0))
-    out = {}
-    for engine, n in (("numba", T), ("numpy", min(T, 1000))):
-        times = []
-        for _ in range(runs):
-            f = make_filter(name)
-            f.reset(a[0])
-            filter_block(f, g[:2], a[:2], 1.0 / rate, engine=engine)  # compile / warm up
-            t0 = time.perf_counter()
-            filter_block(f, g[:n], a[:n], 1.0 / rate, engine=engine)
-            times.append((time.perf_counter() - t0) / n * 1e6)
-        out[f"{engine}_us_per_step"] = statistics.median(times)
-    return out
+    times = []
+    for _ in range(runs):
+        f = make_filter(name)
+        f.reset(a[0])
+        filter_block(f, g[:2], a[:2], 1.0 / rate)  # compile / warm up
+        t0 = time.perf_counter()
+        filter_block(f, g, a, 1.0 / rate)
+        times.append((time.perf_counter() - t0) / T * 1e6)
+    return {"numba_us_per_step": statistics.median(times)}
 
 
 def live_cost(d: dict, name: str, frames: int = 2000) -> float:

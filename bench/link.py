@@ -22,7 +22,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import median_rate, write_results  # noqa: E402
 
 from recorder.emulator.glove import SyntheticGlove  # noqa: E402
-from recorder.link.sources import open_source  # noqa: E402
+from recorder.link.serial_source import SerialSource  # noqa: E402
 from recorder.monitor import LinkMonitor  # noqa: E402
 from recorder.protocol import PoseFrame, RawFrame, StreamDecoder, encode_frame  # noqa: E402
 from recorder.protocol.legacy_json import encode_line  # noqa: E402
@@ -84,7 +84,7 @@ def stream(rate: int, duration: float) -> dict:
             text=True,
         )
         emu.stdout.readline()
-        with open_source(link) as src:
+        with SerialSource(link) as src:
             mon = LinkMonitor(src)
             mon.run(duration)
             rep = mon.report()

@@ -33,7 +33,7 @@ os.environ.setdefault("HF_HUB_OFFLINE", "1")
 
 from recorder.record.config import RecordConfig  # noqa: E402
 from recorder.record.recorder import Recorder  # noqa: E402
-from recorder.record.store import read_sidecar  # noqa: E402
+from recorder.record.sidecar import read_sidecar  # noqa: E402
 
 VARIANTS = ("gloverec", "lerobot_save_in_loop", "loop_only")
 

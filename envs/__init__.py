@@ -10,6 +10,7 @@ from __future__ import annotations
 import gymnasium as gym
 
 from envs.robots import load_robot, robot_names
+from recorder.config import ConfigError
 
 __all__ = ["ENV_IDS", "load_robot", "make", "robot_names", "task_names"]
 
@@ -23,7 +24,7 @@ def task_names() -> tuple[str, ...]:
 def make(task: str, robot: str = "glovehand", **kwargs) -> gym.Env:
     """``gym.make`` by task name (``pose``, ``grasp``); unknown names: one-line ValueError."""
     if task not in ENV_IDS:
-        raise ValueError(f"unknown task {task!r}; valid tasks: {', '.join(ENV_IDS)}")
+        raise ConfigError(f"unknown task {task!r}; valid tasks: {', '.join(ENV_IDS)}")
     return gym.make(ENV_IDS[task], robot=robot, **kwargs)
 
 

@@ -12,12 +12,15 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import logging
 import sys
 
-from recorder import GloverecError
-from recorder.argtypes import natural, positive_float, positive_int
+from policies.config import TrainConfig
+from recorder import GloverecError, config
+from recorder.argtypes import natural, positive_int
+from recorder.paths import HUB_ENV
 
-HUB_HELP = "the local hub folder (default: $GLOVEREC_HUB, else datasets/hub)"
+HUB_HELP = f"the local hub folder (default: ${HUB_ENV}, else datasets/hub)"
 
 
 def _dataset_flags(p: argparse.ArgumentParser) -> None:
@@ -33,19 +36,9 @@ def add_parsers(subparsers) -> None:
     _dataset_flags(t)
     t.add_argument("--policy", choices=("bc",), default="bc", help="the policy to train (default bc)")
     t.add_argument("--out", required=True, help="output folder: checkpoints, loss curve, split, summary")
-    t.add_argument("--steps", type=positive_int, help="training steps (default: configs/train/bc.yaml)")
     t.add_argument("--resume", action="store_true", help="continue from OUT/checkpoints/last")
-    t.add_argument("--batch-size", type=positive_int)
-    t.add_argument("--lr", type=positive_float, help="peak learning rate")
-    t.add_argument("--seed", type=int, help="initialisation, split and batch order")
-    t.add_argument("--save-every", type=positive_int, help="a checkpoint every N steps (default 1000), and at the end")
-    t.add_argument("--val-fraction", type=float, help="share of episodes held out for validation (default 0.1)")
-    t.add_argument(
-        "--all-episodes",
-        action="store_true",
-        help="train on failed demonstrations too (default: only those marked successful)",
-    )
-    t.add_argument("--config", help="a train YAML (default: configs/train/<policy>.yaml)")
+    t.add_argument("--config", help="a train YAML file (keys: the fields of policies/config.py TrainConfig)")
+    config.add_arguments(t, TrainConfig)
     t.add_argument(
         "--threads",
         type=positive_int,
@@ -95,9 +88,7 @@ def _quiet_stdout(json_mode: bool):
 
 
 def _setup(threads: int | None = None) -> None:
-    import logging
-
-    import torch
+    import torch  # not at start-up: the commands that need it import it
 
     logging.getLogger().setLevel(logging.WARNING)
     if threads:
@@ -105,20 +96,10 @@ def _setup(threads: int | None = None) -> None:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
-    from policies.data import resolve
-    from policies.train import TrainConfig, train
+    from policies.data import resolve  # torch and lerobot: not at start-up
+    from policies.train import train
 
-    cfg = TrainConfig.load(
-        args.config,
-        policy=args.policy,
-        steps=args.steps,
-        batch_size=args.batch_size,
-        lr=args.lr,
-        seed=args.seed,
-        val_fraction=args.val_fraction,
-        save_every=args.save_every,
-        successful_only=False if args.all_episodes else None,
-    )
+    cfg = TrainConfig.load(args.config, **config.overrides(args, TrainConfig))
     ref = resolve(args.repo_id, args.hub, args.root, args.version)
     with _quiet_stdout(args.json):
         _setup(args.threads)
@@ -145,7 +126,7 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
-    from policies import evaluate as ev
+    from policies import evaluate as ev  # torch, lerobot and mujoco: not at start-up
 
     seed = ev.EVAL_SEED if args.seed is None else args.seed
     with _quiet_stdout(args.json):
@@ -195,7 +176,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from policies.data import resolve
+    from policies.data import resolve  # torch, lerobot and mujoco: not at start-up
     from policies.replay import replay
 
     ref = resolve(args.repo_id, args.hub, args.root, args.version)

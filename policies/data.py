@@ -17,8 +17,14 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from lerobot.datasets.compute_stats import get_feature_stats
+from lerobot.datasets.lerobot_dataset import LeRobotDataset, LeRobotDatasetMetadata
+from tqdm import tqdm
 
 from recorder import GloverecError
+from recorder.hub.names import parse_repo_id
+from recorder.hub.store import Hub
+from recorder.record.sidecar import read_sidecar
 
 MIN_STD = 1e-3  # floor of the normalisation std: features (nearly) constant in the demonstrations stay O(1)
 
@@ -41,7 +47,6 @@ def resolve(
 ) -> DatasetRef:
     """The dataset ``repo_id``: ``root`` if given (a recording, e.g. datasets/recordings/USER/NAME), else its
     version in the local hub (the newest unless ``version``); a GloverecError says what is missing."""
-    from recorder.hub.names import parse_repo_id
 
     parse_repo_id(repo_id)
     if root is not None:
@@ -49,7 +54,6 @@ def resolve(
         if not (path / "meta" / "info.json").is_file():
             raise GloverecError(f"{root} is not a LeRobot dataset (no meta/info.json)")
         return DatasetRef(repo_id, path.absolute(), None)
-    from recorder.hub.store import Hub
 
     v = Hub(hub).version(repo_id, version)
     return DatasetRef(repo_id, v.path.resolve(), v.tag)
@@ -67,7 +71,6 @@ def video_backend() -> str:
 
 
 def load_meta(ref: DatasetRef):
-    from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
 
     try:
         return LeRobotDatasetMetadata(ref.repo_id, root=ref.root)
@@ -77,7 +80,6 @@ def load_meta(ref: DatasetRef):
 
 def sidecar(root: Path) -> dict[int, dict]:
     """Our per-episode metadata (seed, success, robot, task, ...) by episode index."""
-    from recorder.record.store import read_sidecar
 
     return {int(e["episode_index"]): e for e in read_sidecar(root)}
 
@@ -111,8 +113,6 @@ class FrameCache:
         delta_timestamps: dict | None,
         progress: bool = True,
     ):
-        from lerobot.datasets.lerobot_dataset import LeRobotDataset
-        from tqdm import tqdm
 
         self.episodes = list(episodes)
         self.data: dict[str, torch.Tensor] = {}
@@ -154,7 +154,6 @@ class FrameCache:
     def stats(self, keys: list[str], base: dict) -> dict[str, dict[str, np.ndarray]]:
         """Normalisation statistics of these frames (lerobot's get_feature_stats) for vector features; image
         statistics from ``base`` (the dataset's). Stds are floored at MIN_STD."""
-        from lerobot.datasets.compute_stats import get_feature_stats
 
         out = {k: dict(v) for k, v in base.items()}
         for k in keys:

@@ -21,9 +21,22 @@ import sys
 import time
 from pathlib import Path
 
+import draccus
 import numpy as np
+import torch
+from lerobot.configs.policies import PreTrainedConfig
+from lerobot.configs.types import FeatureType
+from lerobot.policies.factory import get_policy_class, make_pre_post_processors
+from lerobot.utils.io_utils import write_video
+from tqdm import tqdm
 
+import envs
+import policies.bc  # noqa: F401  (registers gloverec_bc)
+from envs.tasks import CAMERAS
+from policies.data import dataset_info, sidecar
 from recorder import GloverecError
+from recorder.demonstrator import make_demonstrator
+from recorder.retarget import Retargeter
 
 EVAL_SEED = 100_000  # recordings use seeds 0, 1, ... by default: evaluation episodes are never training ones
 VIDEO_SIZE = (384, 512)  # (H, W), multiples of 16 for the codec; of videos when the policy has no cameras of its own
@@ -46,7 +59,6 @@ class PolicyAgent:
         self.policy.reset()
 
     def act(self, obs: dict) -> np.ndarray:
-        import torch
 
         batch = {}
         for key in self.inputs:
@@ -62,7 +74,6 @@ class DemonstratorAgent:
     emulated glove, without the glove's sensor noise)."""
 
     def __init__(self, task: str, robot: str):
-        from recorder.demonstrator import make_demonstrator
 
         self.demo = make_demonstrator(task)
         self.robot = robot
@@ -72,7 +83,6 @@ class DemonstratorAgent:
         self.env = None
 
     def reset(self, env, seed: int) -> None:
-        from recorder.retarget import Retargeter
 
         self.env = env.unwrapped
         if self.retarget is None:
@@ -127,8 +137,6 @@ def policy_context(pretrained: Path) -> dict:
     except (OSError, ValueError, KeyError, TypeError):
         return ctx
     if root is not None and (root / "meta" / "info.json").is_file():
-        from policies.data import dataset_info, sidecar
-
         info = dataset_info(root)
         side = sidecar(root)
         first = side[min(side)] if side else {}
@@ -144,11 +152,6 @@ def policy_context(pretrained: Path) -> dict:
 
 def load_policy(path: str | Path, device: str = "cpu") -> PolicyAgent:
     """Any LeRobot checkpoint whose type LeRobot knows (built-in, or ours: importing policies.bc registers it)."""
-    import draccus
-    from lerobot.configs.policies import PreTrainedConfig
-    from lerobot.policies.factory import get_policy_class, make_pre_post_processors
-
-    import policies.bc  # noqa: F401  (registers gloverec_bc)
 
     pretrained = find_pretrained(path)
     try:
@@ -183,7 +186,6 @@ def load_policy(path: str | Path, device: str = "cpu") -> PolicyAgent:
 def consumed_features(cfg) -> dict:
     """The inputs a LeRobot policy reads: observation.state, the environment state and the images.
     Other dataset features LeRobot lists as inputs (observation.glove: the human hand) are not read."""
-    from lerobot.configs.types import FeatureType
 
     out = {}
     if cfg.robot_state_feature is not None:
@@ -201,8 +203,6 @@ def env_options(agent: PolicyAgent, video: bool) -> dict:
         opts["control_hz"] = float(agent.context["fps"])
     cams = [k.removeprefix("observation.images.") for k in agent.inputs if k.startswith("observation.images.")]
     if cams:
-        from envs.tasks import CAMERAS
-
         bad = [c for c in cams if c not in CAMERAS]
         if bad:
             raise GloverecError(
@@ -258,7 +258,6 @@ def check_features(agent: PolicyAgent, env, task: str, robot: str) -> None:
 
 
 def make_env(task: str, robot: str, **options):
-    import envs
 
     try:
         return envs.make(task, robot, **options)
@@ -276,7 +275,6 @@ def evaluate(
     progress: bool = False,
 ) -> dict:
     """Run ``episodes`` episodes (seeds seed, seed+1, ...); videos of the first ``videos`` into ``video_dir``."""
-    from tqdm import tqdm
 
     u = env.unwrapped
     fps = float(u.config.control_hz)
@@ -331,7 +329,6 @@ def evaluate(
 
 
 def _write_video(path: Path, frames: list, fps: float) -> Path:
-    from lerobot.utils.io_utils import write_video
 
     write_video(str(path), np.stack(frames), fps=fps)
     return path
@@ -368,7 +365,6 @@ def _warn_seed_overlap(context: dict, seed: int, episodes: int) -> None:
     root = (context.get("dataset") or {}).get("root")
     if not root or not Path(root).exists():
         return
-    from policies.data import sidecar
 
     used = {e.get("seed") for e in sidecar(Path(root)).values()}
     overlap = used & set(range(seed, seed + episodes))

@@ -13,8 +13,10 @@ import time
 from pathlib import Path
 
 import numpy as np
+from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
 from policies.data import DatasetRef, dataset_info, sidecar, video_backend
+from policies.evaluate import VIDEO_SIZE, _write_video, make_env
 from recorder import GloverecError
 
 TOLERANCE = 1e-5  # float32 rounding; a replay within it reproduces the recording
@@ -41,10 +43,6 @@ def replay(
         missing = "task" if not task else "robot"
         raise GloverecError(f"episode {episode} of {ref.repo_id}: its metadata does not say its {missing}")
     fps = float(info.get("fps") or meta.get("fps") or 30)
-
-    from lerobot.datasets.lerobot_dataset import LeRobotDataset
-
-    from policies.evaluate import VIDEO_SIZE, _write_video, make_env
 
     t0 = time.perf_counter()
     ds = LeRobotDataset(ref.repo_id, root=ref.root, episodes=[episode], video_backend=video_backend())

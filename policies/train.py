@@ -21,46 +21,32 @@ import io
 import json
 import sys
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import torch
+from lerobot.configs.default import DatasetConfig
+from lerobot.configs.policies import PreTrainedConfig
+from lerobot.configs.train import TrainPipelineConfig
+from lerobot.datasets.factory import resolve_delta_timestamps
+from lerobot.optim.factory import make_optimizer_and_scheduler
+from lerobot.policies.factory import make_policy, make_pre_post_processors
+from lerobot.utils.constants import CHECKPOINTS_DIR, LAST_CHECKPOINT_LINK, PRETRAINED_MODEL_DIR
+from lerobot.utils.random_utils import set_seed
+from lerobot.utils.train_utils import (
+    get_step_checkpoint_dir,
+    load_training_state,
+    save_checkpoint,
+    update_last_checkpoint,
+)
+from tqdm import tqdm
 
+import policies.bc  # noqa: F401  (registers gloverec_bc)
+from policies.config import TrainConfig
 from policies.data import DatasetRef, FrameCache, load_meta, sidecar, split_episodes, video_backend
 from recorder import GloverecError
-from recorder.settings import load_values
 
-CONFIGS = Path(__file__).resolve().parents[1] / "configs" / "train"
 POLICY_TYPES = {"bc": "gloverec_bc"}
-
-
-@dataclass
-class TrainConfig:
-    """`gloverec train` settings: configs/train/<policy>.yaml, then the command line."""
-
-    steps: int = 3000
-    batch_size: int = 256
-    lr: float | None = None  # None: the policy's preset
-    seed: int = 0
-    val_fraction: float = 0.1
-    successful_only: bool = True  # train on the episodes the recorder marked successful
-    val_every: int | None = None  # None: steps / 20
-    save_every: int | None = None  # None: only at the end
-    policy: dict = field(default_factory=dict)  # fields of the policy's LeRobot config (BCConfig)
-
-    @classmethod
-    def load(cls, path: str | Path | None = None, policy: str = "bc", **overrides) -> TrainConfig:
-        source = Path(path) if path else CONFIGS / f"{policy}.yaml"
-        values = load_values(cls, source, bool(path), overrides, "train")
-        cfg = cls(**values)
-        for name in ("steps", "batch_size"):
-            if not isinstance(getattr(cfg, name), int) or getattr(cfg, name) <= 0:
-                raise GloverecError(f"{name} must be a positive whole number, not {getattr(cfg, name)!r}")
-        if cfg.lr is not None and not cfg.lr > 0:
-            raise GloverecError(f"lr must be positive, not {cfg.lr!r}")
-        if not 0 <= cfg.val_fraction < 1:
-            raise GloverecError(f"val_fraction must be in [0, 1), not {cfg.val_fraction!r}")
-        return cfg
 
 
 def _say(text: str) -> None:
@@ -68,9 +54,6 @@ def _say(text: str) -> None:
 
 
 def _policy_config(policy: str, cfg: TrainConfig):
-    from lerobot.configs.policies import PreTrainedConfig
-
-    import policies.bc  # noqa: F401  (registers gloverec_bc)
 
     extra = dict(cfg.policy)
     if cfg.lr is not None:
@@ -98,19 +81,6 @@ def train(
         raise GloverecError(f"nothing to resume in {out}: it has no checkpoints/last")
     if not resume and out.exists() and (not out.is_dir() or any(out.iterdir())):
         raise GloverecError(f"{out} already exists: pass --resume to continue its training, or choose another --out")
-
-    from lerobot.configs.default import DatasetConfig
-    from lerobot.configs.policies import PreTrainedConfig
-    from lerobot.configs.train import TrainPipelineConfig
-    from lerobot.datasets.factory import resolve_delta_timestamps
-    from lerobot.optim.factory import make_optimizer_and_scheduler
-    from lerobot.policies.factory import make_policy, make_pre_post_processors
-    from lerobot.utils.constants import CHECKPOINTS_DIR, LAST_CHECKPOINT_LINK, PRETRAINED_MODEL_DIR
-    from lerobot.utils.random_utils import set_seed
-    from lerobot.utils.train_utils import load_training_state
-    from tqdm import tqdm
-
-    import policies.bc  # noqa: F401  (registers gloverec_bc)
 
     t0 = time.perf_counter()
     meta = load_meta(ref)
@@ -246,7 +216,6 @@ def _loop(
     bar, train_cache, val_cache, pre, post, policy_obj, optimizer, scheduler, tcfg, cfg, val_every, history, extras, out
 ) -> None:
     """The training steps from the bar's position to cfg.steps: validation, history and checkpoints."""
-    import torch
 
     n = len(train_cache)
     running: list[float] = []
@@ -278,7 +247,6 @@ def _loop(
 
 
 def _validation_loss(policy, pre, cache: FrameCache, batch_size: int) -> float | None:
-    import torch
 
     if len(cache) == 0:
         return None
@@ -308,8 +276,6 @@ def _checkpoint_extras(ref: DatasetRef, meta) -> dict:
 
 
 def _save(out: Path, step: int, tcfg, policy, optimizer, scheduler, pre, post, history, extras) -> None:
-    from lerobot.utils.constants import PRETRAINED_MODEL_DIR
-    from lerobot.utils.train_utils import get_step_checkpoint_dir, save_checkpoint, update_last_checkpoint
 
     ckpt = get_step_checkpoint_dir(out, tcfg.steps, step)
     save_checkpoint(ckpt, step, tcfg, policy, optimizer, scheduler, pre, post)
@@ -320,7 +286,7 @@ def _save(out: Path, step: int, tcfg, policy, optimizer, scheduler, pre, post, h
 
 
 def plot_losses(history: list[dict], path: Path, title: str = "") -> None:
-    import matplotlib
+    import matplotlib  # the Agg backend must be chosen before pyplot loads: both here
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

@@ -1,7 +1,9 @@
 """gloverec recorder: glove link, fusion, hand model, retargeting, the recording loop and the local hub.
 
-Data flows one way through the subpackages: ``protocol`` (bytes <-> frames) -> ``link`` (ports, threads,
-clocks) -> ``hand`` (the 16-segment hand model) -> ... -> datasets. ``emulator`` stands in for the glove.
+Data flows one way through the subpackages, which are layers (docs/decisions.md; `lint-imports` checks them):
+``protocol`` (bytes <-> frames) -> ``link``, ``log`` (ports, threads, clocks; session logs) -> ``hand`` (the
+16-segment hand model, HandPose) -> ``fusion`` -> (envs.robots) -> ``retarget`` -> (envs.tasks) -> ``emulator``,
+``demonstrator`` -> ``glove`` (open_glove) -> ``view`` -> ``record``, ``calibrate``, ``hub`` -> (policies) -> ``cli``.
 """
 
 __version__ = "0.1.0"

@@ -11,10 +11,16 @@ import json
 import signal
 import sys
 
+from policies import cli as policies_cli
 from recorder import GloverecError, __version__
 from recorder.argtypes import positive_float, positive_int
+from recorder.calibrate import cli as calibrate_cli
+from recorder.glove.config import SPECS, GloveConfig
+from recorder.hub import cli as hub_cli
+from recorder.record import cli as record_cli, inspect as inspect_cli
+from recorder.view import cli as view_cli
 
-PORT_HELP = "glove port: a serial device (serial:PORT or a path), udp:PORT, udp:HOST:PORT or mcap:FILE"
+PORT_HELP = f"the glove: {SPECS}"
 
 
 def _hostport(text: str) -> tuple[str, int]:
@@ -79,43 +85,8 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--baud", type=positive_int, default=115200)
     b.set_defaults(func=cmd_bridge)
 
-    c = sub.add_parser("calibrate", help="walk through the calibration steps and save the glove's calibration")
-    c.add_argument(
-        "--glove",
-        required=True,
-        help="emulator (the emulated wearer runs the steps), serial:PORT, "
-        "a device path, udp:PORT or mcap:FILE (a log of the steps)",
-    )
-    c.add_argument("--glove-id", type=_glove_id, help="hex id to save under (default: the glove's status frame)")
-    c.add_argument(
-        "--dir", help="where calibrations live (default: $GLOVEREC_CALIBRATION_DIR, else datasets/calibration)"
-    )
-    c.add_argument("--config", help="fusion config (default configs/fusion/default.yaml)")
-    c.add_argument(
-        "--yes",
-        action="store_true",
-        help="do not wait for Enter: each step follows the last "
-        "(the default when stdin is not a terminal, and for the emulator)",
-    )
-    c.add_argument(
-        "--attempts",
-        type=positive_int,
-        default=3,
-        help="recordings of step 1 before giving up when the hand moves (default 3)",
-    )
-    c.add_argument(
-        "--realtime", action="store_true", help="pace the emulator in real time (default: as fast as it is read)"
-    )
-    c.add_argument("--json", action="store_true", help="print a JSON summary instead of the table")
-    c.set_defaults(func=cmd_calibrate)
-
-    from envs import view
-    from policies import cli as policies_cli
-    from recorder.hub import cli as hub_cli
-    from recorder.record import cli as record_cli
-    from recorder.record import inspect as inspect_cli
-
-    view.add_parser(sub)
+    calibrate_cli.add_parser(sub)
+    view_cli.add_parser(sub)
     record_cli.add_parsers(sub)
     record_cli.add_rerecord_parser(sub)
     inspect_cli.add_parsers(sub)
@@ -146,7 +117,7 @@ def _interrupt(*_):
 
 
 def cmd_emulate(args) -> int:
-    from recorder.emulator.emulator import Emulator
+    from recorder.emulator.emulator import Emulator  # numpy and the synthetic IMUs: not at start-up
 
     emu = Emulator(
         args.rate,
@@ -179,32 +150,6 @@ def cmd_emulate(args) -> int:
     return 0
 
 
-def _glove_id(text: str) -> int:
-    try:
-        value = int(text, 16)
-    except ValueError:
-        value = -1
-    if not 0 < value < 1 << 32:
-        raise argparse.ArgumentTypeError(f"expected a glove id in hex (1 to ffffffff), got {text!r}")
-    return value
-
-
-def cmd_calibrate(args) -> int:
-    from recorder.fusion.procedure import Calibrator, report, summary
-
-    result = Calibrator(
-        args.glove,
-        glove_id=args.glove_id,
-        folder=args.dir,
-        config=args.config,
-        interactive=False if args.yes else None,
-        attempts=args.attempts,
-        realtime=args.realtime,
-    ).run()
-    print(json.dumps(summary(result)) if args.json else report(result))
-    return 0
-
-
 def _finish(monitor, args, what: str) -> int:
     report = monitor.report()
     if args.json:
@@ -229,10 +174,10 @@ def _finish(monitor, args, what: str) -> int:
 
 
 def cmd_monitor(args) -> int:
-    from recorder.monitor import LinkMonitor
+    from recorder.monitor import LinkMonitor  # numpy and the link: not at start-up
 
-    with _open_with_protocol(args) as source:
-        monitor = LinkMonitor(source)
+    with _glove(args) as glove:
+        monitor = LinkMonitor(glove.source)
         try:
             monitor.run(args.duration, live=not args.json and sys.stderr.isatty())
         except KeyboardInterrupt:
@@ -240,29 +185,28 @@ def cmd_monitor(args) -> int:
     return _finish(monitor, args, "link")
 
 
-def _open_with_protocol(args):
-    from recorder.link.sources import make_source
+def _glove(args):
+    """The glove --port names (the emulator too), with --protocol and --baud; logs play back in real time
+    unless --fast. Its frames are what these commands take: no fusion."""
+    from recorder.glove.glove import make_glove  # fusion and the emulator: not at start-up
 
-    kw = {"protocol": getattr(args, "protocol", "auto")}
-    if args.port.startswith("mcap:"):
-        kw["realtime"] = not getattr(args, "fast", False)
-    elif not args.port.startswith("udp:"):
-        kw["baudrate"] = args.baud
-    return make_source(args.port, **kw)
+    config = GloveConfig.parse(args.port, protocol=getattr(args, "protocol", "auto"), baudrate=args.baud)
+    return make_glove(config, fast=getattr(args, "fast", False))
 
 
 def cmd_log(args) -> int:
-    from recorder.log.writer import McapLogger
+    from recorder.log.writer import McapLogger  # mcap, numpy and the link: not at start-up
     from recorder.monitor import LinkMonitor
 
-    source = _open_with_protocol(args)
+    glove = _glove(args)
+    source = glove.source
     try:
-        logger = McapLogger(args.out, {"source": args.port})
+        logger = McapLogger(args.out, {"source": str(glove.config)})
     except OSError as exc:
         raise GloverecError(f"cannot write {args.out}: {exc.strerror or exc}") from None
     source.taps.append(logger)
     try:
-        with source:
+        with glove:
             monitor = LinkMonitor(source)
             try:
                 monitor.run(args.duration, live=not args.json and sys.stderr.isatty())
@@ -276,14 +220,14 @@ def cmd_log(args) -> int:
 
 
 def cmd_bridge(args) -> int:
-    from recorder.bridge import Bridge
+    from recorder.bridge import Bridge  # the link: not at start-up
     from recorder.monitor import LinkMonitor
 
     host, port = args.udp
-    source = _open_with_protocol(args)
-    bridge = Bridge(source, host, port)
-    with source:
-        monitor = LinkMonitor(source)
+    glove = _glove(args)
+    bridge = Bridge(glove.source, host, port)
+    with glove:
+        monitor = LinkMonitor(glove.source)
         try:
             monitor.run(args.duration, live=sys.stderr.isatty(), tick=bridge.forward_commands)
         except KeyboardInterrupt:

@@ -13,11 +13,11 @@ import pytest
 
 from conftest import gloverec, wait_for
 from recorder import GloverecError
+from recorder.emulator import procedure as emulated
 from recorder.emulator.emulator import GLOVE_ID, Emulator
-from recorder.fusion import emulated
 from recorder.fusion.session import SessionFusion, load_config, load_fusion
 from recorder.hand.calibration import GloveCalibration
-from recorder.hand.kinematics import JOINTS, joint_angles_from_relative
+from recorder.hand.kinematics import JOINTS
 from recorder.log.playback import log_calibration
 
 G = 9.80665
@@ -239,9 +239,10 @@ def test_the_reset_key_and_the_button_retake_the_reference_pose(calibrated):
     """The emulated wearer spreads the fingers and holds; `zero` on stdin then makes that the reference pose:
     the fused abductions jump from the spread hand's to the rest pose's, and C changes."""
     from recorder.demonstrator.motion import DemoMotion
-    from recorder.emulator.motion import GESTURES
+    from recorder.glove.config import GloveConfig
+    from recorder.glove.glove import make_glove
+    from recorder.hand.gestures import GESTURES
     from recorder.record.control import Control
-    from recorder.record.glove_input import GloveInput
 
     folder, _ = calibrated
     spread = GESTURES["open"].copy()
@@ -250,7 +251,8 @@ def test_the_reset_key_and_the_button_retake_the_reference_pose(calibrated):
     r, w = os.pipe()
     control = Control(stdin=os.fdopen(r))
     session = SessionFusion(calibration_dir=folder)
-    glove = GloveInput("emulator", True, mode="raw", seed=1, fusion=session)
+    config = GloveConfig.parse("emulator", mode="raw", seed=1)
+    glove = make_glove(config, fast=True, motion="demonstrations", fusion=session)
     control.on_reset(glove.reset_pose)
     glove.open()
     try:
@@ -263,13 +265,13 @@ def test_the_reset_key_and_the_button_retake_the_reference_pose(calibrated):
         start = glove.take_button()
         assert start is not None and glove.wait_past(start + 1.5)
         assert session.resets == 1  # the button
-        before = joint_angles_from_relative(glove.track.at(start + 1.5).quats)
+        before = glove.track.at(start + 1.5).pose.angles
         c_before = session.fusion.C.copy()
         np.testing.assert_allclose(np.degrees(before[abd]), [20.0, -15.0, -25.0], atol=2.5)
         os.write(w, b"zero\n")
         assert wait_for(lambda: session._reset_requested, 5.0)
         assert glove.wait_past(start + 1.7) and session.resets == 2
-        after = joint_angles_from_relative(glove.track.at(start + 1.7).quats)
+        after = glove.track.at(start + 1.7).pose.angles
         np.testing.assert_allclose(np.degrees(after[abd]), np.degrees(GESTURES["open"][abd]), atol=2.5)
         assert not np.allclose(session.fusion.C, c_before, atol=1e-3)
     finally:

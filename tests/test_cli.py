@@ -5,7 +5,7 @@ import pytest
 
 from conftest import gloverec
 from recorder import quat
-from recorder.link.sources import open_source
+from recorder.link.serial_source import SerialSource
 from recorder.protocol import PoseFrame
 
 
@@ -34,7 +34,7 @@ def test_emulator_prints_its_port_first_and_exposes_ground_truth(emulator, tmp_p
     truth = tmp_path / "truth.npz"
     emu = emulator("--rate", "100", "--truth", str(truth), "--seed", "3")
     got = []
-    with open_source(emu.port) as src:
+    with SerialSource(emu.port) as src:
         while len(got) < 100:
             f = src.read(timeout=2)
             assert f is not None

@@ -6,8 +6,8 @@ import pytest
 from recorder import quat
 from recorder.emulator.glove import GloveBlock, SyntheticGlove
 from recorder.emulator.imu import G, ImuArray
-from recorder.emulator.motion import Motion
 from recorder.hand import kinematics as kin
+from recorder.hand.motion import Motion
 from recorder.hand.skeleton import JOINT_MAP, N_IMUS, N_SEGMENTS
 
 RATE = 200.0

@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 
 from recorder import quat
-from recorder.emulator.motion import GESTURES, KINDS, Motion
 from recorder.hand import kinematics as kin
+from recorder.hand.gestures import GESTURES
+from recorder.hand.motion import KINDS, Motion
 
 J = kin.JOINTS.index
 RATE = 100.0

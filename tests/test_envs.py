@@ -9,8 +9,8 @@ import envs
 from envs.robots import load_robot, robot_names
 from envs.robots.glovehand import OUT, build
 from envs.tasks import make_task
-from recorder.emulator.motion import GESTURES
 from recorder.hand import kinematics as kin
+from recorder.hand.gestures import GESTURES
 from recorder.hand.skeleton import FINGERS
 
 ROBOTS = ("glovehand", "shadow")
@@ -63,7 +63,7 @@ def test_glovehand_is_a_plausible_hand():
 
 
 def test_shadow_uses_the_shipped_model_with_its_couplings():
-    from recorder.retarget import tendon_couplings
+    from envs.robots import tendon_couplings
 
     r = load_robot("shadow")
     assert r.model.njnt == 24 and r.model.nu == 20
@@ -88,10 +88,14 @@ def test_unknown_task_is_one_line_listing_the_valid_ones():
 
 
 def test_unknown_task_option_and_camera():
-    with pytest.raises(ValueError, match="valid"):
+    with pytest.raises(ValueError, match="pose task: control_rate: unknown key; valid: control_hz, "):
         envs.make("pose", "glovehand", control_rate=30)
-    with pytest.raises(ValueError, match="valid cameras"):
+    with pytest.raises(ValueError, match="pose task: cameras.0: Input should be 'front', 'top' or 'side'"):
         envs.make("pose", "glovehand", cameras=("ceiling",))
+    with pytest.raises(ValueError, match="grasp task: episode_s: Input should be greater than 0"):
+        envs.make("grasp", "glovehand", episode_s=0)
+    with pytest.raises(ValueError, match="unknown gesture 'wave'; valid gestures: open, fist"):
+        envs.make("pose", "glovehand", gestures=("fist", "wave"))
 
 
 @pytest.mark.parametrize("task", ["pose", "grasp"])

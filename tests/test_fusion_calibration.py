@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 from recorder import quat
+from recorder.emulator import procedure as emulated
 from recorder.emulator.glove import SyntheticGlove
-from recorder.fusion import emulated, make_filter
+from recorder.fusion import make_filter
 from recorder.hand import calibration as cal
 from recorder.protocol.frames import RawFrame
 

@@ -1,5 +1,6 @@
 """The glove filters: the thesis' complementary filter (eq. 3.4-3.19), Mahony (Santaera Alg. 1), the relative
-two-IMU form (Alg. 2) and Madgwick, all vectorised over the 12 IMUs."""
+two-IMU form (Alg. 2) and Madgwick, all over the 12 IMUs at once, on their numba kernels (recorder/fusion/
+kernels.py): ``update`` and ``filter_block`` run the same step kernels (tests/test_fusion_block.py)."""
 
 import numpy as np
 import pytest
@@ -10,7 +11,6 @@ from recorder.fusion.bias import BiasTracker
 from recorder.fusion.block import filter_block
 from recorder.fusion.complementary import ComplementaryFilter, ComplementarySettings, adaptive_gain
 from recorder.fusion.gravity import attitude_from_gravity
-from recorder.fusion.median import MedianBuffer
 from recorder.fusion.relative import RelativeFilter, RelativeSettings
 
 UP = np.array([0.0, 0.0, 1.0])
@@ -87,19 +87,26 @@ def test_attitude_from_gravity_eq_3_5_3_6():
     np.testing.assert_array_equal(attitude_from_gravity(np.zeros(3)), quat.IDENTITY)
 
 
-def test_median_buffer_matches_the_firmware_definition():
-    m = MedianBuffer(1, 12)
-    np.testing.assert_array_equal(m.value(), np.zeros((1, 3)))  # empty: zeros
-    vals = [5.0, 1.0, 3.0, 2.0]
-    outs = [m.push(np.full((1, 3), v))[0, 0] for v in vals]
+def test_median_window_matches_the_firmware_definition():
+    f = ComplementaryFilter(1, ComplementarySettings(median_window=12))
+    np.testing.assert_array_equal(f.median(), np.zeros((1, 3)))  # empty: zeros
+    outs = []
+    for v in [5.0, 1.0, 3.0, 2.0]:
+        f.observe(np.full((1, 3), v))
+        outs.append(f.median()[0, 0])
     assert outs == [5.0, 3.0, 3.0, 2.5]  # the samples held; even count: mean of the two middle ones
     for v in range(10):
-        m.push(np.full((1, 3), 100.0 + v))
+        f.observe(np.full((1, 3), 100.0 + v))
     # full (12): the last 12 samples are 3, 2, 100..109 -> middle two 103, 104 (the 5 and 1 fell out)
-    assert m.value()[0, 0] == pytest.approx(103.5)
-    masked = MedianBuffer(2, 12)
-    masked.push(np.ones((2, 3)), mask=np.array([True, False]))
+    assert f.median()[0, 0] == pytest.approx(103.5)
+    f.observe(np.full((1, 3), 200.0))  # overwrites the oldest (the 3): 2, 100..109, 200 -> 104.5
+    assert f.median()[0, 0] == pytest.approx(104.5) and list(f.count) == [12] and list(f.head) == [3]
+    masked = ComplementaryFilter(2)
+    masked.observe(np.ones((2, 3)), mask=np.array([True, False]))
     assert list(masked.count) == [1, 0]
+    np.testing.assert_array_equal(masked.median(), [[1.0, 1.0, 1.0], [0.0, 0.0, 0.0]])
+    with pytest.raises(ValueError, match="median window"):
+        ComplementaryFilter(1, ComplementarySettings(median_window=0))
 
 
 def test_median_rejects_accelerometer_spikes():

@@ -1,6 +1,7 @@
-"""The host's complementary filter (recorder/fusion/complementary.py) against the firmware's C++ one
-(firmware/lib/glove_core/complementary_filter.cpp, built here with cmake + g++): the same raw samples give the
-same quaternions within 1e-5 per component. The C++ core computes in float32: the difference is rounding that
+"""The host's complementary filter (recorder/fusion/complementary.py, its kernel recorder/fusion/kernels.py
+``complementary_step``) against the firmware's C++ one (firmware/lib/glove_core/complementary_filter.cpp, built
+here with cmake + g++), the two implementations of the thesis' filter: the same raw samples give the same
+quaternions within 1e-5 per component. The C++ core computes in float32: the difference is rounding that
 accumulates in the (uncorrected) heading, about 1e-5 after 3 s at 1 kHz or 60 s at 200 Hz."""
 
 from __future__ import annotations

@@ -1,21 +1,22 @@
 """HostFusion: raw frames -> segment quaternions, joint angles and quality; pose frames; bad input."""
 
-from pathlib import Path
+import dataclasses
 
 import numpy as np
 import pytest
 
 from recorder import quat
-from recorder.fusion import FusionConfig, HostFusion, emulated
+from recorder.emulator import procedure as emulated
+from recorder.fusion import FusionConfig, HostFusion
 from recorder.fusion.quality import DEAD, MISSING, NONFINITE, SATURATED, STUCK, describe
-from recorder.hand import calibration as cal
-from recorder.hand import joints
+from recorder.hand import calibration as cal, joints
 from recorder.hand.kinematics import JOINTS
+from recorder.paths import configs_dir
 from recorder.protocol.frames import EventCode, EventFrame, PoseFrame, RawFrame
 
 RATE = 200
 SECONDS = 8.0
-CONFIGS = Path(__file__).resolve().parents[1] / "configs" / "fusion"
+CONFIGS = configs_dir() / "fusion"
 
 
 @pytest.fixture(scope="module")
@@ -61,6 +62,33 @@ def test_joint_angles_and_fingertips_match_the_ground_truth(glove, name):
     assert out.valid.all() and not out.flags.any()
     # the constrained pose: quats are the model at the angles, the palm row its world orientation
     np.testing.assert_allclose(out.quats[-1, 1:], joints.constrained_relative(out.angles[-1])[1:], atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ["mahony", "relative"])
+def test_an_imu_first_seen_mid_block_starts_from_gravity(glove, name):
+    """Without ``start`` every IMU starts at its first fused sample: attitude from gravity (eq. 3.5-3.6), its
+    clock, and its heading reference from the hand model in the reference pose (eq. 3.21). IMU 7 (middle
+    proximal) answers from frame 20 on; the joints then follow the ground truth as after ``start``."""
+    hf = HostFusion(FusionConfig(filter=name, rate_hz=RATE))
+    rec = glove["rec"]
+    hf.calibrate(rec["still"], rec["flex"], rec["tilt"])
+    k1 = glove["k1"]
+    raw, t = glove["block"].raw[k1:], glove["t"][k1:]
+    ok = np.full(len(raw), 0xFFF)
+    ok[:20] &= ~(1 << 7)
+    first = hf.process_block(raw[:20], t[:20], ok[:20])
+    assert not hf.started[7] and hf.started[np.arange(12) != 7].all()
+    wrong = quat.from_axis_angle([1, 0, 0], 1.0)  # what IMU 7 held before its first sample does not matter
+    hf.filter.q[7] = wrong
+    if name == "relative":
+        hf.filter.rel[7] = wrong
+    at = hf.process_block(raw[20:21], t[20:21])
+    a = raw[20, 7, :3] * (16 / 32768.0) - hf.calibration.accel_offset[7]
+    np.testing.assert_allclose(quat.rotate(hf.filter.q[7], a / np.linalg.norm(a)), [0, 0, 1], atol=1e-3)
+    assert hf.started.all() and hf.last_t[7] == t[20]
+    rest = hf.process_block(raw[21:], t[21:])
+    err = rms_deg(dataclasses.replace(rest, angles=np.concatenate((first.angles, at.angles, rest.angles))), glove)
+    assert np.sqrt(np.mean(err**2)) < 1.0 and err.max() < 2.0, dict(zip(JOINTS, err.round(2)))
 
 
 def test_a_drifting_bias_does_not_become_drifting_joints(glove):
@@ -185,11 +213,18 @@ def test_config_files_load_and_bad_names_are_refused(tmp_path):
     for path in sorted(CONFIGS.glob("*.yaml")):
         config = FusionConfig.load(path)
         HostFusion(config)
-    assert {p.stem for p in CONFIGS.glob("*.yaml")} >= {"default", "complementary", "relative"}
+    assert {p.stem for p in CONFIGS.glob("*.yaml")} >= {"complementary", "madgwick", "relative", "thesis"}
+    assert FusionConfig.load() == FusionConfig()  # the defaults live in the dataclass
     assert FusionConfig.load(CONFIGS / "complementary.yaml", limits=False).limits is False
     bad = tmp_path / "bad.yaml"
     bad.write_text("filter: mahony\nfliter_settings: {}\n")
-    with pytest.raises(ValueError, match="fliter_settings"):
+    with pytest.raises(ValueError, match="bad.yaml: fliter_settings: unknown key; valid: filter, filter_settings"):
+        FusionConfig.load(bad)
+    bad.write_text("filter: mahony\nengine: numpy\n")  # gone: the numba kernels are the one implementation
+    with pytest.raises(ValueError, match="engine"):
         FusionConfig.load(bad)
     with pytest.raises(ValueError, match="complementary"):
         FusionConfig(filter="ekf")
+    bad.write_text("filter: madgwick\nfilter_settings: {kp: 1}\n")
+    with pytest.raises(ValueError, match="bad.yaml: filter_settings: unknown setting"):
+        FusionConfig.load(bad)

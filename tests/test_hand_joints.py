@@ -2,14 +2,12 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
+from hypothesis import given, settings, strategies as st
 from hypothesis.extra.numpy import arrays
 
 from recorder import quat
-from recorder.emulator.motion import GESTURES
-from recorder.hand import joints
-from recorder.hand import kinematics as kin
+from recorder.hand import joints, kinematics as kin
+from recorder.hand.gestures import GESTURES
 from recorder.hand.skeleton import FINGER_SEGMENTS, FINGERS, N_SEGMENTS
 
 HINGE_SEGMENTS = [s for s, _, _ in joints.HINGE]

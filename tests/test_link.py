@@ -11,7 +11,8 @@ import pytest
 from conftest import gloverec, wait_for
 from recorder import GloverecError
 from recorder.link.clock import DeviceClock
-from recorder.link.sources import make_source, open_source
+from recorder.link.serial_source import SerialSource
+from recorder.link.udp_source import UdpSource
 from recorder.protocol import CommandCode, EventCode, EventFrame, Mode, PoseFrame, RawFrame, encode_command
 from recorder.protocol.codec import encode_frame
 from recorder.protocol.frames import identity_pose
@@ -28,7 +29,7 @@ def collect(source, n, timeout=5.0, kind=(PoseFrame, RawFrame)):
 
 def test_emulated_glove_streams_pose_frames(emulator):
     emu = emulator("--rate", "200", "--mode", "pose")
-    with open_source(emu.port) as src:
+    with SerialSource(emu.port) as src:
         frames = collect(src, 200)
         stats = src.stats()
     assert len(frames) == 200
@@ -45,7 +46,7 @@ def test_emulated_glove_streams_pose_frames(emulator):
 
 def test_raw_mode_carries_twelve_mpu9250(emulator):
     emu = emulator("--rate", "200", "--mode", "raw")
-    with open_source(emu.port) as src:
+    with SerialSource(emu.port) as src:
         frames = collect(src, 50)
     assert len(frames) == 50 and all(f.data.shape == (12, 7) for f in frames)
     g = np.linalg.norm(np.stack([f.accel_g for f in frames]), axis=-1)
@@ -55,7 +56,7 @@ def test_raw_mode_carries_twelve_mpu9250(emulator):
 
 def test_legacy_json_glove_is_detected(emulator):
     emu = emulator("--rate", "60", "--mode", "json")
-    with open_source(emu.port) as src:
+    with SerialSource(emu.port) as src:
         frames = collect(src, 20)
         assert src.stats().protocol == "json"
     assert len(frames) == 20 and all(f.t_us == -1 for f in frames)
@@ -63,7 +64,7 @@ def test_legacy_json_glove_is_detected(emulator):
 
 def test_commands_switch_the_glove_mode(emulator):
     emu = emulator("--rate", "200", "--mode", "pose")
-    with open_source(emu.port) as src:
+    with SerialSource(emu.port) as src:
         assert len(collect(src, 20)) == 20
         src.command(CommandCode.SET_MODE, Mode.RAW)
         assert wait_for(lambda: isinstance(src.read(0.1), RawFrame))
@@ -75,7 +76,7 @@ def test_commands_switch_the_glove_mode(emulator):
 
 def test_unplug_and_replug_reconnects(emulator):
     emu = emulator("--rate", "200")
-    with open_source(emu.port) as src:
+    with SerialSource(emu.port) as src:
         assert len(collect(src, 20)) == 20
         emu.unplug()
         assert wait_for(lambda: not src.connected)
@@ -97,7 +98,7 @@ def test_garbage_between_frames_is_counted_and_skipped(tmp_path):
     port = os.ttyname(slave)
     os.close(slave)
     rng = np.random.default_rng(1)
-    with open_source(port) as src:
+    with SerialSource(port) as src:
         sent = []
         for seq in range(60):
             f = PoseFrame(seq, seq * 1000, identity_pose())
@@ -114,7 +115,7 @@ def test_garbage_between_frames_is_counted_and_skipped(tmp_path):
 
 def test_a_slow_consumer_loses_the_oldest_frames_and_counts_them(emulator):
     emu = emulator("--rate", "500")
-    src = make_source(emu.port, queue_size=16).open()
+    src = SerialSource(emu.port, queue_size=16).open()
     try:
         time.sleep(1.0)
         stats = src.stats()
@@ -127,7 +128,7 @@ def test_a_slow_consumer_loses_the_oldest_frames_and_counts_them(emulator):
 
 def test_missing_port_is_a_clear_error(tmp_path):
     with pytest.raises(GloverecError, match="no such port"):
-        open_source(str(tmp_path / "nope"))
+        SerialSource(str(tmp_path / "nope")).open()
     r = gloverec("monitor", "--port", str(tmp_path / "nope"), "--duration", "1")
     assert r.returncode == 1 and r.stderr.count("\n") == 1 and "no such port" in r.stderr
 
@@ -180,7 +181,7 @@ def test_udp_source_counts_lost_and_reordered_datagrams():
     sock.bind(("127.0.0.1", 0))
     port = sock.getsockname()[1]
     sock.close()
-    with open_source(f"udp:127.0.0.1:{port}") as src:
+    with UdpSource(port, "127.0.0.1") as src:
         out = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         order = [0, 1, 2, 4, 3, 5, 5, 8, 9]  # 3 late, 5 twice, 6 and 7 lost
         for seq in order:
@@ -206,7 +207,7 @@ def test_bridge_forwards_serial_frames_to_udp(emulator):
     sock.bind(("127.0.0.1", 0))
     port = sock.getsockname()[1]
     sock.close()
-    with open_source(f"udp:127.0.0.1:{port}") as src:
+    with UdpSource(port, "127.0.0.1") as src:
         bridge = subprocess.Popen(
             [
                 sys.executable,
@@ -259,7 +260,7 @@ def test_firmware_in_the_loop_through_the_pty(emulator):
     from recorder.protocol import PoseCompactFrame
 
     emu = emulator("--firmware", "--mode", "compact", "--rate", "200", "--motion", "random")
-    with open_source(emu.port) as src:
+    with SerialSource(emu.port) as src:
         frames = collect(src, 300, timeout=10, kind=PoseCompactFrame)
         stats = src.stats()
     assert len(frames) == 300 and stats.decode["errors"] == 0 and stats.decode["gaps"] == 0

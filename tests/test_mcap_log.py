@@ -20,7 +20,6 @@ from mcap.writer import Writer
 
 from recorder import GloverecError
 from recorder.link.base import GloveSource
-from recorder.link.sources import make_source
 from recorder.log import McapLogger, McapSource, iter_chunks, iter_frames, read_log
 from recorder.log.playback import _read_through
 from recorder.log.writer import BYTES_TOPIC, MARKS_TOPIC, SCHEMAS
@@ -320,7 +319,7 @@ def test_realtime_playback_keeps_the_recorded_spacing(tmp_path):
     src, _, _ = record(path, chunks, step_ns=5_000_000)  # 0.595 s of recording
     t = time.monotonic()
     frames = []
-    with make_source(f"mcap:{path}", realtime=True) as play:
+    with McapSource(path, realtime=True) as play:
         while (f := play.read(timeout=2.0)) is not None:
             assert f.rx_ns <= time.monotonic_ns()  # delivered no earlier than its (mapped) receive time
             frames.append(f)
@@ -520,7 +519,7 @@ def test_bad_files_raise_one_line_errors(tmp_path):
     }
     for path, message in cases.items():
         with pytest.raises(GloverecError, match=message) as exc:
-            make_source(f"mcap:{path}", realtime=False).open()
+            McapSource(path, realtime=False).open()
         assert "\n" not in str(exc.value) and str(path) in str(exc.value)
     assert "/camera/info" in str(pytest.raises(GloverecError, read_log, foreign).value)
     for path in (text, foreign, empty):

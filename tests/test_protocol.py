@@ -5,11 +5,10 @@ import zlib
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
+from hypothesis import HealthCheck, given, settings, strategies as st
 
 from recorder import quat
-from recorder.hand.kinematics import LIMITS, forward, relative_quats
+from recorder.hand.kinematics import LIMITS, forward, relative_from_angles, relative_quats
 from recorder.protocol import (
     Command,
     CommandCode,
@@ -142,7 +141,8 @@ def test_compact_pose_frame_carries_the_hand_in_52_bytes():
     for a, p, rel in zip(angles, palm, truth):
         wire = encode_frame(PoseCompactFrame(1, 2, p, a))
         assert len(wire) == 52 and 11520 / len(wire) >= 200
-        got = decode_frame(wire[:-1]).relative_quats()
+        f = decode_frame(wire[:-1])
+        got = relative_from_angles(f.angles, f.palm_quat)
         assert np.degrees(quat.angle_between(got, rel)).max() < 0.1  # flexion and abduction, 0.05 deg each
     with pytest.raises(ValueError, match="20 angles"):
         encode_frame(PoseCompactFrame(1, 2, palm[0], angles[0, :16]))

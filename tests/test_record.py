@@ -14,7 +14,7 @@ from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
 import envs
 from conftest import gloverec, wait_for
-from recorder.record.store import read_sidecar
+from recorder.record.sidecar import read_sidecar
 
 
 def record_cmd(command, *args, timeout=240):
@@ -130,7 +130,6 @@ def test_sigkill_during_recording_keeps_saved_episodes_and_resume_continues(tmp_
         (["--task", "juggle"], "unknown task"),
         (["--repo-id", "../evil"], "bad repo id"),
         (["--repo-id", "noslash"], "bad repo id"),
-        (["--fps", "0"], "fps"),
         (["--task", "grasp", "--episode-time-s", "1"], "too short"),
         (["--glove", "/dev/does-not-exist"], "no such port"),
     ],
@@ -139,6 +138,12 @@ def test_bad_input_is_one_line(tmp_path, args, needle):
     r = gloverec("record", "--episodes", "1", "--root", str(tmp_path / "ds"), *args)
     assert r.returncode == 1, r.stderr
     assert r.stderr.strip().count("\n") == 0 and needle in r.stderr and "Traceback" not in r.stderr
+
+
+def test_bad_flag_values_are_usage_errors(tmp_path):
+    """A flag value out of its range is caught by the parser (exit 2, one line), as for every command."""
+    r = gloverec("record", "--episodes", "1", "--root", str(tmp_path / "ds"), "--fps", "0")
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--fps: must be positive" in r.stderr
 
 
 def test_existing_root_needs_resume(pose_dataset):

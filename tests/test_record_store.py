@@ -10,7 +10,8 @@ import pytest
 from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
 from recorder import GloverecError
-from recorder.record.store import EpisodeStore, read_sidecar
+from recorder.record.sidecar import read_sidecar
+from recorder.record.store import EpisodeStore
 
 FEATURES = {
     "observation.state": {"dtype": "float32", "shape": (3,), "names": ["a", "b", "c"]},

@@ -2,8 +2,7 @@
 
 import numpy as np
 import pytest
-from hypothesis import example, given, settings
-from hypothesis import strategies as st
+from hypothesis import example, given, settings, strategies as st
 from hypothesis.extra.numpy import arrays
 from lerobot.datasets.compute_stats import aggregate_stats, compute_episode_stats
 from lerobot.datasets.lerobot_dataset import LeRobotDataset
@@ -11,7 +10,8 @@ from lerobot.datasets.lerobot_dataset import LeRobotDataset
 from recorder import GloverecError
 from recorder.record import store as store_module
 from recorder.record.episode_stats import episode_stats
-from recorder.record.store import EpisodeStore, read_sidecar
+from recorder.record.sidecar import read_sidecar
+from recorder.record.store import EpisodeStore
 from recorder.record.writer import EpisodeWriter
 
 FEATURES = {

@@ -1,29 +1,32 @@
 """Retargeting: config validation, known poses, fingertip IK, palm rotation, speed-relevant pieces."""
 
-import copy
-
 import numpy as np
 import pytest
+import yaml
 
-from envs.robots import load_robot
+from envs.robots import JointMap, load_robot
+from envs.robots.config import retarget_section
 from recorder import quat
-from recorder.emulator.motion import GESTURES, Motion
+from recorder.config import ConfigError
+from recorder.hand.gestures import GESTURES
 from recorder.hand.kinematics import JOINTS
-from recorder.retarget import RetargetConfigError, Retargeter, load_retarget_config
+from recorder.hand.motion import Motion
+from recorder.paths import config_file
+from recorder.retarget import Retargeter
 from recorder.retarget.fit import mean_tip_error, sample_poses
 
 
 def _raw(robot):
-    return copy.deepcopy(load_robot(robot).config.retarget)
+    """The robot's ``retarget`` section as written in its yaml."""
+    return yaml.safe_load(config_file("robots", robot).read_text())["retarget"]
 
 
 def _load(robot, raw):
-    r = load_robot(robot)
-    return load_retarget_config(raw, r.model, "test.yaml")
+    return JointMap.compile(retarget_section(raw, "test.yaml"), load_robot(robot).model, "test.yaml")
 
 
 def _one_line_error(robot, raw, *fragments):
-    with pytest.raises(RetargetConfigError) as exc:
+    with pytest.raises(ConfigError) as exc:
         _load(robot, raw)
     msg = str(exc.value)
     assert "\n" not in msg, msg
@@ -63,20 +66,20 @@ def test_rejects_missing_actuator_and_unknown_keys():
     _one_line_error("glovehand", raw, "missing actuator", "pinky_dip")
     raw = _raw("glovehand")
     raw["joints"]["pinky_dip"]["gain"] = 2
-    _one_line_error("glovehand", raw, "unknown key", "gain")
+    _one_line_error("glovehand", raw, "unknown key", "retarget.joints.pinky_dip.gain")
     raw = _raw("glovehand")
     raw["smoothing"] = 0.5
     _one_line_error("glovehand", raw, "unknown key", "smoothing")
     raw = _raw("glovehand")
     raw["joints"]["pinky_dip"]["scale"] = "big"
-    _one_line_error("glovehand", raw, "must be a number")
+    _one_line_error("glovehand", raw, "test.yaml: retarget.joints.pinky_dip.scale", "valid number")
 
 
 def test_limits_clip_the_targets():
     raw = _raw("glovehand")
     raw["joints"]["index_pip"]["limits"] = [0.0, 0.5]
     r = Retargeter("glovehand")
-    r.config = _load("glovehand", raw)
+    r.map = _load("glovehand", raw)
     assert r.joint_map(GESTURES["fist"])[JOINTS.index("index_pip")] == pytest.approx(0.5)
 
 

@@ -6,21 +6,34 @@ from __future__ import annotations
 from functools import cache
 from pathlib import Path
 
-from envs.robots.robot import CONFIGS, FINGER_NAMES, Robot, RobotConfig
+from envs.robots.config import FINGER_NAMES, RobotConfig, load_robot_config
+from envs.robots.joint_map import JointMap, tendon_couplings
+from envs.robots.robot import Robot
+from recorder.config import ConfigError
+from recorder.paths import configs_dir
 
-__all__ = ["FINGER_NAMES", "Robot", "RobotConfig", "load_robot", "robot_config", "robot_names"]
+__all__ = [
+    "FINGER_NAMES",
+    "JointMap",
+    "Robot",
+    "RobotConfig",
+    "load_robot",
+    "robot_config",
+    "robot_names",
+    "tendon_couplings",
+]
 
 
 def robot_names() -> tuple[str, ...]:
-    return tuple(sorted(p.stem for p in CONFIGS.glob("*.yaml")))
+    return tuple(sorted(p.stem for p in (configs_dir() / "robots").glob("*.yaml")))
 
 
 def robot_config(name: str) -> RobotConfig:
     """The config of robot ``name`` (or of a .yaml path)."""
-    path = Path(name) if name.endswith((".yaml", ".yml")) else CONFIGS / f"{name}.yaml"
+    path = Path(name) if name.endswith((".yaml", ".yml")) else configs_dir() / "robots" / f"{name}.yaml"
     if not path.is_file():
-        raise ValueError(f"unknown robot {name!r}; valid robots: {', '.join(robot_names())}")
-    return RobotConfig.from_yaml(path)
+        raise ConfigError(f"unknown robot {name!r}; valid robots: {', '.join(robot_names())}")
+    return load_robot_config(path)
 
 
 @cache

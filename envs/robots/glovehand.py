@@ -12,14 +12,13 @@ Regenerate after changing the hand model:  python -m envs.robots.glovehand
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from recorder.hand.kinematics import JOINTS, LIMITS, REST, HandSize
 from recorder.hand.skeleton import FINGER_SEGMENTS, FINGERS, SEGMENTS
+from recorder.paths import assets_dir
 
-OUT = Path(__file__).resolve().parents[1] / "assets" / "glovehand" / "glovehand.xml"
+OUT = assets_dir() / "glovehand" / "glovehand.xml"
 
 # capsule radii (m) per finger: proximal, middle, distal bone (thumb: metacarpal, proximal, distal)
 _RADII = {

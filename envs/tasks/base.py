@@ -20,56 +20,42 @@ Observation (dict):
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
-from pathlib import Path
+from typing import Annotated, Literal
 
 import gymnasium as gym
 import mujoco
 import numpy as np
-import yaml
 
 from envs.robots import load_robot
-from recorder import quat
+from recorder import config, quat
+from recorder.config import STRICT, Positive
 
-TASK_CONFIGS = Path(__file__).resolve().parents[2] / "configs" / "tasks"
 CAMERAS = ("front", "top", "side")
 
 
 @dataclass
 class TaskConfig:
-    control_hz: float = 30.0
-    max_physics_dt: float = 0.002  # the physics step is the control period split into equal steps <= this
-    episode_s: float = 6.0
-    cameras: tuple = ()  # any of CAMERAS; empty: state only (fastest)
-    image_size: tuple = (128, 128)  # (height, width)
+    """What every task shares; each task's dataclass adds its own. Built by ``load`` from these defaults and
+    keyword overrides (gym.make kwargs, the recorder's flags), validated by recorder.config."""
+
+    __pydantic_config__ = STRICT
+
+    control_hz: Annotated[float, Positive] = 30.0
+    max_physics_dt: Annotated[float, Positive] = 0.002  # the physics step: the control period split into equal
+    # steps of at most this
+    episode_s: Annotated[float, Positive] = 6.0
+    cameras: tuple[Literal["front", "top", "side"], ...] = ()  # empty: state only (fastest)
+    image_size: tuple[Annotated[int, Positive], Annotated[int, Positive]] = (128, 128)  # (height, width)
     base_rotation: bool = True  # the action carries the palm rotation (3)
-    max_base_angle_deg: float = 75.0
+    max_base_angle_deg: Annotated[float, Positive] = 75.0
     state_velocities: bool = True
-    weld_timeconst: float = 0.01  # s; how stiffly the hand base follows its target
+    weld_timeconst: Annotated[float, Positive] = 0.01  # s; how stiffly the hand base follows its target
 
     @classmethod
     def load(cls, name: str, **overrides):
-        """Defaults, then configs/tasks/<name>.yaml, then ``overrides``; unknown keys: one-line ValueError."""
-        values = {}
-        path = TASK_CONFIGS / f"{name}.yaml"
-        if path.is_file():
-            values.update(yaml.safe_load(path.read_text()) or {})
-        values.update(overrides)
-        fields = {f.name: f for f in dataclasses.fields(cls)}
-        unknown = sorted(set(values) - set(fields))
-        if unknown:
-            raise ValueError(f"unknown {name} task option(s) {', '.join(unknown)}; valid: {', '.join(fields)}")
-        for k, v in values.items():
-            if isinstance(v, list):
-                values[k] = tuple(tuple(x) if isinstance(x, list) else x for x in v)
-        cfg = cls(**values)
-        bad = [c for c in cfg.cameras if c not in CAMERAS]
-        if bad:
-            raise ValueError(f"unknown camera {bad[0]!r}; valid cameras: {', '.join(CAMERAS)}")
-        if cfg.control_hz <= 0 or cfg.episode_s <= 0:
-            raise ValueError("control_hz and episode_s must be positive")
-        return cfg
+        """The defaults with ``overrides``; an unknown option or a bad value: one-line ConfigError."""
+        return config.build(cls, overrides, f"{name} task")
 
 
 def _look_at(pos, target):

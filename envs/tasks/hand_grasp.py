@@ -15,14 +15,17 @@ environment_state: object position (3), orientation (4), half extents (3), shape
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Annotated, Literal
 
 import mujoco
 import numpy as np
 
 from envs.tasks.base import HandEnv, TaskConfig
 from recorder import quat
+from recorder.config import NonNegative, Positive
 
 SHAPES = ("box", "cylinder", "sphere")
+Range = tuple[float, float]
 _GEOM = {
     "box": mujoco.mjtGeom.mjGEOM_BOX,
     "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
@@ -37,24 +40,24 @@ def _min_jerk(s):
 
 @dataclass
 class HandGraspConfig(TaskConfig):
-    episode_s: float = 5.5
-    shapes: tuple = SHAPES
-    # half extents (m): box (x, y, z ranges), cylinder (radius, half height), sphere (radius)
-    box_half: tuple = ((0.022, 0.030), (0.022, 0.030), (0.030, 0.040))
-    cylinder_size: tuple = ((0.022, 0.030), (0.035, 0.045))
-    sphere_radius: tuple = (0.030, 0.038)
-    mass_kg: tuple = (0.05, 0.15)
-    friction: tuple = (0.8, 1.2)
-    placement_m: float = 0.04  # object centre uniform in ±placement_m (x and y)
-    misalignment_m: float = 0.008  # base xy error relative to the object, uniform in ±
-    hover_m: float = 0.08  # start this high above the grasp pose
+    episode_s: Annotated[float, Positive] = 5.5
+    shapes: tuple[Literal["box", "cylinder", "sphere"], ...] = SHAPES
+    # half extents (m), each a (low, high) range: box (x, y, z), cylinder (radius, half height), sphere (radius)
+    box_half: tuple[Range, Range, Range] = ((0.022, 0.030), (0.022, 0.030), (0.030, 0.040))
+    cylinder_size: tuple[Range, Range] = ((0.022, 0.030), (0.035, 0.045))
+    sphere_radius: Range = (0.030, 0.038)
+    mass_kg: Range = (0.05, 0.15)
+    friction: Range = (0.8, 1.2)
+    placement_m: Annotated[float, NonNegative] = 0.04  # object centre uniform in ±placement_m (x and y)
+    misalignment_m: Annotated[float, NonNegative] = 0.008  # base xy error relative to the object, uniform in ±
+    hover_m: Annotated[float, NonNegative] = 0.08  # start this high above the grasp pose
     lift_m: float = 0.12
     tilt_deg: float = 25.0
-    tilt_prob: float = 0.5
-    descend_s: float = 1.0  # phase durations
-    close_s: float = 1.3
-    lift_s: float = 1.2
-    tilt_s: float = 1.0
+    tilt_prob: Annotated[float, NonNegative] = 0.5
+    descend_s: Annotated[float, Positive] = 1.0  # phase durations
+    close_s: Annotated[float, Positive] = 1.3
+    lift_s: Annotated[float, Positive] = 1.2
+    tilt_s: Annotated[float, Positive] = 1.0
 
 
 class HandGraspEnv(HandEnv):

@@ -1,8 +1,8 @@
 """HandPose: reach a target gesture and hold it.
 
-Each episode draws a gesture (recorder.emulator.motion.GESTURES); its goal, in ``observation.environment_state``,
+Each episode draws a gesture (recorder.hand.gestures.GESTURES); its goal, in ``observation.environment_state``,
 is where the robot's actuated joints come to rest when commanded the gesture's joint-mapped targets (the
-robot's retarget joint map), found once per gesture by simulation: a gesture whose fingers collide (the
+robot's joint map, envs/robots/joint_map.py), found once per gesture by simulation: a gesture whose fingers collide (the
 thumb on a curled finger) so gets a goal the robot can actually reach. Success: every actuated joint within
 ``tolerance_deg`` of its target, continuously for ``hold_s``; the episode then terminates. The hand starts
 near the open hand; its base hovers, palm down, and rotates with the glove's palm.
@@ -12,22 +12,38 @@ Reward: 1 while every joint is within tolerance, else -mean joint error (rad).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Annotated
 
+import mujoco
 import numpy as np
+from pydantic import AfterValidator
 
 from envs.tasks.base import HandEnv, TaskConfig
 from recorder import quat
-from recorder.emulator.motion import GESTURES
+from recorder.config import ConfigError, NonNegative, Positive
+from recorder.hand.gestures import GESTURES
 from recorder.hand.kinematics import LIMITS, interpolate_dip
+
+
+def _gesture(name: str) -> str:
+    if name not in GESTURES:
+        raise ValueError(f"unknown gesture {name!r}; valid gestures: {', '.join(GESTURES)}")
+    return name
 
 
 @dataclass
 class HandPoseConfig(TaskConfig):
-    episode_s: float = 5.0
-    gestures: tuple = ("fist", "pinch", "point", "two_fingers", "spiderman")
-    tolerance_deg: float = 8.0
-    hold_s: float = 0.5
-    start_noise_deg: float = 3.0  # joint noise of the starting (open) pose
+    episode_s: Annotated[float, Positive] = 5.0
+    gestures: tuple[Annotated[str, AfterValidator(_gesture)], ...] = (
+        "fist",
+        "pinch",
+        "point",
+        "two_fingers",
+        "spiderman",
+    )
+    tolerance_deg: Annotated[float, Positive] = 8.0
+    hold_s: Annotated[float, NonNegative] = 0.5
+    start_noise_deg: Annotated[float, NonNegative] = 3.0  # joint noise of the starting (open) pose
     terminate_on_success: bool = True
 
 
@@ -37,24 +53,19 @@ class HandPoseEnv(HandEnv):
     workspace = (0.0, 0.0, 0.25)
 
     def __init__(self, robot: str = "glovehand", render_mode=None, config=None, **overrides):
-        from recorder.retarget import Retargeter
-
         super().__init__(robot, render_mode, config, **overrides)
-        bad = [g for g in self.config.gestures if g not in GESTURES]
-        if bad:
-            raise ValueError(f"unknown gesture {bad[0]!r}; valid gestures: {', '.join(GESTURES)}")
-        self._map = Retargeter(self.robot, "joint", base_rotation=False)
+        if not self.config.gestures:
+            raise ConfigError("pose task: gestures: at least one gesture is needed")
+        self._map = self.robot.joint_map
         self._goals = {}
         self.goal_name = self.config.gestures[0]
         self.goal_angles = GESTURES[self.goal_name]
-        self.goal = self._map.joint_map(self.goal_angles)
+        self.goal = self._map(self.goal_angles)
         self._held = 0
 
     def settled_goal(self, gesture: str) -> np.ndarray:
         """Actuated joint positions (nu,) after holding ``gesture``'s joint-mapped targets for 1.5 s."""
         if gesture not in self._goals:
-            import mujoco
-
             d = mujoco.MjData(self.model)
             d.qpos[:] = self.model.qpos0
             d.mocap_pos[self._mocap] = self.workspace
@@ -62,7 +73,7 @@ class HandPoseEnv(HandEnv):
             rp, rq = self.robot.root_in_palm
             d.qpos[self._base_qpos : self._base_qpos + 3] = np.array(self.workspace) + rp
             d.qpos[self._base_qpos + 3 : self._base_qpos + 7] = rq
-            d.ctrl[:] = self._map.joint_map(GESTURES[gesture])
+            d.ctrl[:] = self._map(GESTURES[gesture])
             mujoco.mj_step(self.model, d, nstep=int(1.5 / self.model.opt.timestep))
             self._goals[gesture] = d.actuator_length.copy()
         return self._goals[gesture]
@@ -78,10 +89,9 @@ class HandPoseEnv(HandEnv):
         self.goal = self.settled_goal(self.goal_name)
         start = GESTURES["open"] + rng.normal(0.0, np.radians(self.config.start_noise_deg), len(LIMITS))
         start = interpolate_dip(np.clip(start, LIMITS[:, 0], LIMITS[:, 1]))
-        q = self._map.qpos(self._map.joint_map(start))
-        self.data.qpos[self._jq] = q[
-            self._map.model.jnt_qposadr[[self._map.model.joint(n).id for n in self.joint_names]]
-        ]
+        q = self._map.qpos(self._map(start))
+        robot = self.robot.model
+        self.data.qpos[self._jq] = q[robot.jnt_qposadr[[robot.joint(n).id for n in self.joint_names]]]
         self._held = 0
 
     def _base_target(self, t: float):

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from recorder.demonstrator.motion import DemoMotion
-from recorder.emulator.motion import GESTURES
+from recorder.hand.gestures import GESTURES
 from recorder.hand.kinematics import JOINTS, interpolate_dip
 
 

@@ -1,4 +1,4 @@
-"""DemoMotion: a scripted, human-like hand trajectory that quacks like recorder.emulator.motion.Motion.
+"""DemoMotion: a scripted, human-like hand trajectory (a recorder.hand.motion.SampledMotion).
 
 Keyframed joint angles joined by minimum-jerk moves, plus the small slow wander and physiological tremor of
 a real hand, and a palm that drifts a few degrees; sampled at ``rate_hz`` by ``next_block(n)`` (or at any
@@ -10,11 +10,11 @@ from __future__ import annotations
 import numpy as np
 
 from recorder import quat
-from recorder.emulator.motion import MotionBlock, _min_jerk, _Sines
 from recorder.hand.kinematics import LIMITS, N_JOINTS, clip, interpolate_dip
+from recorder.hand.motion import MotionBlock, SampledMotion, Sines, min_jerk
 
 
-class DemoMotion:
+class DemoMotion(SampledMotion):
     def __init__(
         self,
         times,
@@ -28,16 +28,15 @@ class DemoMotion:
     ):
         """times (k,) ascending s; poses (k, 20) rad: the hand is at poses[i] at times[i], holds before the
         first and after the last, and moves with minimum jerk in between (equal poses: a hold)."""
+        super().__init__(rate_hz)
         self.times = np.asarray(times, float)
         self.poses = clip(np.asarray(poses, float))
         if self.times.ndim != 1 or len(self.times) != len(self.poses) or np.any(np.diff(self.times) < 0):
             raise ValueError("keyframe times must be ascending, one per pose")
-        self.rate_hz = float(rate_hz)
         self.palm_pos = np.asarray(palm_pos, float)
-        self._wander = _Sines(rng, N_JOINTS, 2, 0.1, 0.5, np.radians(wander_deg))
-        self._tremor = _Sines(rng, N_JOINTS, 2, 8.0, 12.0, np.radians(tremor_deg))
-        self._palm = _Sines(rng, 3, 2, 0.05, 0.4, np.radians(palm_deg))
-        self._i = 0
+        self._wander = Sines(rng, N_JOINTS, 2, 0.1, 0.5, np.radians(wander_deg))
+        self._tremor = Sines(rng, N_JOINTS, 2, 8.0, 12.0, np.radians(tremor_deg))
+        self._palm = Sines(rng, 3, 2, 0.05, 0.4, np.radians(palm_deg))
 
     @property
     def duration(self) -> float:
@@ -50,7 +49,7 @@ class DemoMotion:
         k1 = np.minimum(k + 1, len(self.times) - 1)
         span = self.times[k1] - self.times[k]
         s = np.where(span > 0, (t - self.times[k]) / np.where(span > 0, span, 1.0), 1.0)
-        return self.poses[k] + (self.poses[k1] - self.poses[k]) * _min_jerk(np.clip(s, 0.0, 1.0))[:, None]
+        return self.poses[k] + (self.poses[k1] - self.poses[k]) * min_jerk(np.clip(s, 0.0, 1.0))[:, None]
 
     def angles(self, t) -> np.ndarray:
         t = np.atleast_1d(np.asarray(t, float))
@@ -61,10 +60,3 @@ class DemoMotion:
         t = np.atleast_1d(np.asarray(t, float))
         palm_quat = quat.from_rotvec(self._palm(t))
         return MotionBlock(t, self.angles(t), palm_quat, np.tile(self.palm_pos, (len(t), 1)))
-
-    def next_block(self, n: int) -> MotionBlock:
-        t = (self._i + np.arange(n)) / self.rate_hz
-        self._i += n
-        if n == 0:
-            return MotionBlock(t, np.zeros((0, N_JOINTS)), np.zeros((0, 4)), np.zeros((0, 3)))
-        return self.at(t)

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from recorder.demonstrator.motion import DemoMotion
-from recorder.emulator.motion import GESTURES
+from recorder.hand.gestures import GESTURES
 
 
 @dataclass(frozen=True)

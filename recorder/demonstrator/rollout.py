@@ -16,15 +16,17 @@ import time
 
 import numpy as np
 
+import envs  # noqa: F401  (registers the environments)
 from recorder.demonstrator import make_demonstrator
+from recorder.emulator.glove import SyntheticGlove
 from recorder.hand.kinematics import joint_angles_from_relative
+from recorder.retarget import Retargeter
 
 
 class _GloveReader:
     """The demonstration as a glove host sees it: noisy pose frames at the glove rate, ``latency_s`` late."""
 
     def __init__(self, motion, seed: int, latency_s: float, noise_deg: float):
-        from recorder.emulator.glove import SyntheticGlove
 
         self.rate = motion.rate_hz
         glove = SyntheticGlove(motion, rate_hz=self.rate, seed=seed, pose_noise_deg=noise_deg)
@@ -88,8 +90,6 @@ def run_episode(
 def success_rate(
     task: str, robot: str, episodes: int, via: str = "direct", mode: str = "joint", seed0: int = 0, **env_kwargs
 ) -> dict:
-    import envs  # noqa: F401  (registers the environments)
-    from recorder.retarget import Retargeter
 
     env = envs.make(task, robot, **env_kwargs)
     r = Retargeter(robot, mode, base_rotation=env.unwrapped.config.base_rotation)

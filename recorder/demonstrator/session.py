@@ -13,7 +13,7 @@ import threading
 import numpy as np
 
 from recorder.demonstrator.motion import DemoMotion
-from recorder.emulator.motion import GESTURES
+from recorder.hand.gestures import GESTURES
 
 
 class SessionMotion(DemoMotion):

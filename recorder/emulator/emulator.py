@@ -18,8 +18,10 @@ import tty
 import numpy as np
 
 from recorder import GloverecError
+from recorder.emulator.firmware import FirmwareCore, FirmwareError, RestThenMove, build_core
 from recorder.emulator.glove import SyntheticGlove
 from recorder.hand.kinematics import joint_angles_from_relative
+from recorder.hand.motion import Motion
 from recorder.hand.skeleton import JOINT_MAP, MUX_MAP, N_IMUS
 from recorder.protocol import StreamDecoder
 from recorder.protocol.codec import encode_frame
@@ -94,8 +96,6 @@ class Emulator:
         self._t_us = time.monotonic_ns() // 1000
 
     def _start_core(self, motion, seed: int, mode: str):
-        from recorder.emulator.firmware import FirmwareCore, FirmwareError, RestThenMove, build_core
-        from recorder.emulator.motion import Motion
 
         try:
             self.core = FirmwareCore(build_core(), int(self.sense_hz), int(self.output_hz), mode)

@@ -29,8 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from recorder import quat
-from recorder.emulator.motion import MotionBlock, _min_jerk
 from recorder.hand.kinematics import N_JOINTS
+from recorder.hand.motion import MotionBlock, SampledMotion, min_jerk
 
 REPO = Path(__file__).resolve().parents[2]
 FIRMWARE_DIR = REPO / "firmware"
@@ -270,26 +270,25 @@ class FirmwareCore:
         shutil.rmtree(self._dir, ignore_errors=True)
 
 
-class RestThenMove:
-    """A Motion-like wrapper (``next_block``, ``rate_hz``): the hand rests flat in the model's zero pose with the
-    palm level for ``rest_s``, then blends into ``motion`` over ``blend_s`` (minimum jerk); afterwards it is
-    ``motion`` delayed by ``rest_s``. The core calibrates the gyros and takes its reference pose while it rests."""
+class RestThenMove(SampledMotion):
+    """The hand rests flat in the model's zero pose with the palm level for ``rest_s``, then blends into
+    ``motion`` over ``blend_s`` (minimum jerk); afterwards it is ``motion`` delayed by ``rest_s``. The core
+    calibrates the gyros and takes its reference pose while it rests."""
 
-    def __init__(self, motion, rest_s: float = 1.5, blend_s: float = 1.0):
+    def __init__(self, motion: SampledMotion, rest_s: float = 1.5, blend_s: float = 1.0):
+        super().__init__(motion.rate_hz)
         self.motion, self.rest_s, self.blend_s = motion, float(rest_s), float(blend_s)
-        self.rate_hz = float(motion.rate_hz)
         self._p0 = motion.at(np.zeros(1)).palm_pos[0]
-        self._i = 0
 
-    def next_block(self, n: int) -> MotionBlock:
-        t = (self._i + np.arange(n)) / self.rate_hz
-        self._i += n
+    def at(self, t) -> MotionBlock:
+        t = np.asarray(t, float)
+        n = len(t)
         moving = t >= self.rest_s
         m = self.motion.at(np.maximum(t[moving] - self.rest_s, 0.0)) if moving.any() else None
         p0 = self._p0
         angles, palm_quat, palm_pos = np.zeros((n, N_JOINTS)), np.tile(quat.IDENTITY, (n, 1)), np.tile(p0, (n, 1))
         if m is not None:
-            w = _min_jerk(np.clip((t[moving] - self.rest_s) / self.blend_s, 0.0, 1.0))[:, None]
+            w = min_jerk(np.clip((t[moving] - self.rest_s) / self.blend_s, 0.0, 1.0))[:, None]
             angles[moving] = w * m.angles
             palm_quat[moving] = quat.from_rotvec(w * quat.to_rotvec(m.palm_quat))
             palm_pos[moving] = p0 + w * (m.palm_pos - p0)

@@ -13,8 +13,8 @@ import numpy as np
 
 from recorder import quat
 from recorder.emulator.imu import ImuArray
-from recorder.emulator.motion import Motion
 from recorder.hand.kinematics import HandSize, dorsal_mounts, forward, relative_quats
+from recorder.hand.motion import Motion
 from recorder.hand.skeleton import JOINT_MAP, N_IMUS, N_SEGMENTS
 
 __all__ = ["GloveBlock", "SyntheticGlove", "N_IMUS"]

@@ -2,7 +2,8 @@
 
 Filters (one file each, a settings dataclass + a class with reset / observe / update over all IMUs at once):
 complementary (the thesis' filter, shared with the firmware), mahony (Santaera et al. Alg. 1), relative (Alg. 2),
-madgwick; ``make_filter(name, **settings)``. ``filter_block`` filters a whole recording in one call (compiled).
+madgwick; ``make_filter(name, **settings)``. ``filter_block`` filters a whole recording in one call. Their maths
+is one implementation, the numba kernels of kernels.py, for the live and the block path alike.
 ``HostFusion`` turns raw glove frames into 16 parent-relative quaternions, 20 joint angles and quality.
 """
 

@@ -4,13 +4,16 @@ Conventions (recorder/hand/kinematics.py): quaternions are (w, x, y, z) arrays, 
 own axes into the world frame (z up), gyro in rad/s in the IMU's axes, accelerometer in g as specific force
 (+1 on z when the IMU lies flat and still). ``dt`` in seconds, a scalar or one value per IMU. ``mask`` (n,) bool
 selects the IMUs that take part in a call; the others keep their state untouched (a dead IMU is not fused).
+
+A filter is its settings, its state arrays and two entries into its numba kernels (recorder/fusion/kernels.py):
+``update`` (one sample, the step kernel) and ``block`` (T samples, the block loop over the same step kernel).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from recorder.fusion.gravity import attitude_from_gravity, gain_factor
+from recorder.fusion.gravity import attitude_from_gravity
 
 
 def as_mask(mask, n: int) -> np.ndarray:
@@ -19,19 +22,24 @@ def as_mask(mask, n: int) -> np.ndarray:
         return np.ones(n, bool)
     if isinstance(mask, (int, np.integer)):
         return (int(mask) >> np.arange(n)) & 1 == 1
-    return np.asarray(mask, bool).reshape(n)
+    return np.ascontiguousarray(np.asarray(mask, bool).reshape(n))
 
 
 class Filter:
     """Base of the glove filters: ``q`` (n, 4), ``bias`` (n, 3) rad/s (the filter's own gyro bias estimate,
-    zero for filters without one), ``reset``, ``observe`` and ``update``."""
+    zero for filters without one), ``reset``, ``observe``, ``update`` and ``block``."""
 
     name = "filter"
+    STATE = ("q", "bias")  # the state arrays by name (``state``, ``load_state``)
 
     def __init__(self, n: int):
         self.n = int(n)
         self.q = np.tile([1.0, 0.0, 0.0, 0.0], (self.n, 1))
         self.bias = np.zeros((self.n, 3))
+
+    def params(self) -> tuple:
+        """The settings as the kernels take them, in their order (after the state and the sample)."""
+        raise NotImplementedError
 
     def observe(self, accel, mask=None) -> None:
         """See an accelerometer sample without filtering (while the gyro is being calibrated)."""
@@ -43,21 +51,27 @@ class Filter:
         self.bias[m] = 0.0
 
     def update(self, gyro, accel, dt, mask=None) -> np.ndarray:
-        """One step for the masked IMUs; returns ``q``."""
+        """One step for the masked IMUs (the filter's step kernel); returns ``q``."""
         raise NotImplementedError
 
-    def _inputs(self, accel, dt, mask, t1: float, t2: float):
-        """The masked step's inputs: (mask, dt (k, 1), accel (k, 3), its norm (k, 1), accelerometer trust
-        (k, 1) from the thesis' eq. 3.19 ramp between thresholds ``t1`` and ``t2``)."""
-        m = as_mask(mask, self.n)
-        dt = np.broadcast_to(np.asarray(dt, float), (self.n,))[m, None]
-        a = np.asarray(accel, float).reshape(self.n, 3)[m]
-        an = np.linalg.norm(a, axis=1, keepdims=True)
-        return m, dt, a, an, gain_factor(an[:, 0], t1, t2)[:, None]
+    def block(self, gyro, accel, dt, mask, out) -> None:
+        """T steps (the filter's block kernel): gyro, accel (T, n, 3), dt (T, n), mask (T, n) bool, all C contiguous;
+        q after each step into out (T, n, 4). ``filter_block`` prepares the arguments."""
+        raise NotImplementedError
+
+    def _sample(self, gyro, accel, dt, mask):
+        """One sample as the step kernels take it: gyro, accel (n, 3), dt (n,), mask (n,) bool."""
+        n = self.n
+        return (
+            np.ascontiguousarray(np.reshape(gyro, (n, 3)), float),
+            np.ascontiguousarray(np.reshape(accel, (n, 3)), float),
+            np.ascontiguousarray(np.broadcast_to(np.asarray(dt, float), (n,))),
+            as_mask(mask, n),
+        )
 
     def state(self) -> dict:
-        """Every state array by name (copies), for the block kernels and for checkpoints."""
-        return {"q": self.q.copy(), "bias": self.bias.copy()}
+        """Every state array by name (copies), for checkpoints."""
+        return {k: getattr(self, k).copy() for k in self.STATE}
 
     def load_state(self, state: dict) -> None:
         for k, v in state.items():

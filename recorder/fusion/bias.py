@@ -19,14 +19,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from recorder import quat
+from recorder.config import STRICT
+from recorder.fusion import kernels
 from recorder.fusion.base import as_mask
-
-UP = np.array([0.0, 0.0, 1.0])
 
 
 @dataclass
 class BiasSettings:
+    __pydantic_config__ = STRICT
+
     ki: float = 0.001  # rad/s^2 per unit gravity error (source 1; 0 disables)
     still_rate: float = 0.03  # rad/s (source 2)
     still_time_s: float = 0.5
@@ -42,31 +43,40 @@ class BiasTracker:
         self.b = np.zeros((self.n, 3))
         self.still_for = np.zeros(self.n)
 
+    def params(self) -> np.ndarray:
+        """The settings as the kernels take them: (ki, still_rate, still_time_s, still_tau_s, max_bias)."""
+        s = self.settings
+        return np.array([s.ki, s.still_rate, s.still_time_s, s.still_tau_s, s.max_bias], float)
+
     def update(self, gyro, accel, q, trust, dt, mask=None) -> np.ndarray:
         """One step after the filter's: gyro (n, 3) rad/s with the static bias but not b removed, accel (n, 3)
         g, q (n, 4) the filter's new orientations, trust (n,) the accelerometer trust in [0, 1]."""
-        s = self.settings
-        m = as_mask(mask, self.n)
-        dt = np.broadcast_to(np.asarray(dt, float), (self.n,))
-        rate = np.asarray(gyro, float) - self.b
-        if self.use_gravity and s.ki > 0.0:
-            a = np.asarray(accel, float)
-            an = np.linalg.norm(a, axis=1, keepdims=True)
-            a_n = np.where(an > 0.0, a / np.where(an > 0.0, an, 1.0), 0.0)
-            e = np.asarray(trust, float)[:, None] * np.cross(a_n, quat.rotate(quat.conj(q), UP))
-            self.b = np.where(m[:, None], self.b - s.ki * e * dt[:, None], self.b)
-        still = m & (np.max(np.abs(rate), axis=1) < s.still_rate) & (np.asarray(trust) >= 1.0)
-        self.still_for = np.where(still, self.still_for + dt, 0.0)
-        learn = still & (self.still_for >= s.still_time_s)
-        k = np.minimum(dt / s.still_tau_s, 1.0)[:, None]
-        self.b = np.where(learn[:, None], self.b + k * rate, self.b)
-        self.b = np.clip(self.b, -s.max_bias, s.max_bias)
+        kernels.bias_step(
+            self.b,
+            self.still_for,
+            _rows(gyro, self.n, 3),
+            _rows(accel, self.n, 3),
+            _rows(q, self.n, 4),
+            _each(trust, self.n),
+            _each(dt, self.n),
+            as_mask(mask, self.n),
+            self.params(),
+            self.use_gravity,
+        )
         return self.b
 
     def add_heading(self, seen, q, gain, mask=None) -> None:
         """Source 3: ``seen`` (n, 3) the heading correction the joint constraints ask for (rad) times the world
         direction of a rotation about the vertical that the joints can see (a hinge cannot see the part about its
         own axis: learning it would only turn the joint); b moves by -gain seen, mapped into the IMU's axes."""
-        m = as_mask(mask, self.n)
-        u = quat.rotate(quat.conj(q), np.asarray(seen, float))
-        self.b = np.where(m[:, None], self.b - np.asarray(gain)[..., None] * u, self.b)
+        kernels.bias_heading(
+            self.b, _rows(q, self.n, 4), _rows(seen, self.n, 3), _each(gain, self.n), as_mask(mask, self.n)
+        )
+
+
+def _rows(x, n: int, k: int) -> np.ndarray:
+    return np.ascontiguousarray(np.reshape(x, (n, k)), float)
+
+
+def _each(x, n: int) -> np.ndarray:
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(x, float), (n,)))

@@ -1,9 +1,15 @@
 """Quaternion complementary filter with adaptive gain: the thesis' filter (§3.3-3.5, eq. 3.4-3.19, listing
-``Hand::updateJoint``), the readable reference shared with the firmware (firmware/lib/glove_core/
-complementary_filter.cpp, compared per quaternion component in tests/test_fusion_firmware.py).
+``Hand::updateJoint``), shared with the firmware (firmware/lib/glove_core/complementary_filter.cpp, compared per
+quaternion component in tests/test_fusion_firmware.py). The maths: recorder/fusion/kernels.py
+``complementary_step``; this class holds the settings and the state (q, the median windows, the last gain).
 
 One step for IMU i, in this order (docs/fusion.md has the derivation):
-1. a = median of the last 12 accelerometer samples, this one included (recorder/fusion/median.py).
+1. a = per-axis median of the last 12 accelerometer samples, this one included (thesis §3.3.2, §4.2.2; the
+   firmware's median_filter.cpp): a push writes the sample at the IMU's buffer head, the head advances modulo
+   the window, the count grows to the window; the median of the samples held is the middle one for an odd count,
+   the mean of the two middle ones for an even count (12 when full), (0, 0, 0) while empty. Only fused samples
+   are pushed (``observe`` pushes without filtering). The kernel keeps each window sorted (remove the sample
+   overwritten, insert the new one): the same values as sorting the buffer.
 2. Eq. 3.4, attitude propagation with h = dt/2 * gyro: q_w = q + q (x) (0, h), then normalised (eq. 3.12 uses
    "the normalised predicted quaternion").
 3. Eq. 3.17-3.19, gain: e_m = | |a| - 1 | (a in g); alpha = static_gain if e_m <= t1, 0 if e_m >= t2 (or NaN),
@@ -25,12 +31,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from recorder import quat
+from recorder.fusion import kernels
 from recorder.fusion.base import Filter, as_mask
 from recorder.fusion.gravity import attitude_from_gravity, gain_factor
-from recorder.fusion.median import MedianBuffer
-
-UP = np.array([0.0, 0.0, 1.0])
 
 
 @dataclass
@@ -42,76 +45,51 @@ class ComplementarySettings:
 
 
 def adaptive_gain(settings, accel_norm) -> np.ndarray:
-    """Eq. 3.17-3.19 with the accelerometer in g: the gain for each |a|; 0 for NaN."""
+    """Eq. 3.17-3.19 with the accelerometer in g: the gain for each |a|; 0 for NaN (the kernel's step 3)."""
     return settings.static_gain * gain_factor(accel_norm, settings.threshold1, settings.threshold2)
-
-
-def to_up(g) -> np.ndarray:
-    """Eq. 3.13 as in the firmware: the shortest rotation taking the direction of g (n, 3) onto (0, 0, 1)."""
-    g = np.asarray(g, float)
-    a = g / np.linalg.norm(g, axis=-1, keepdims=True)
-    c = a[..., 2]
-    q = quat.normalize(np.stack((1.0 + c, a[..., 1], -a[..., 0], np.zeros_like(c)), axis=-1))
-    # opposite: a half turn about a x (1, 0, 0), or a x (0, 1, 0) when that is too short
-    ax = np.stack((np.zeros_like(c), a[..., 2], -a[..., 1]), axis=-1)
-    ay = np.stack((-a[..., 2], np.zeros_like(c), a[..., 0]), axis=-1)
-    axis = np.where((np.linalg.norm(ax, axis=-1) < 1e-3)[..., None], ay, ax)
-    axis = axis / np.linalg.norm(axis, axis=-1, keepdims=True)
-    half = np.concatenate((np.zeros_like(c)[..., None], axis), axis=-1)
-    return np.where((c < -0.999999)[..., None], half, q)
-
-
-def propagate(q, gyro, dt) -> np.ndarray:
-    """Eq. 3.4 then normalisation: q + q (x) (0, dt/2 gyro), normalised."""
-    h = 0.5 * np.asarray(dt, float).reshape(-1, 1) * gyro
-    return quat.normalize(q + quat.mul(q, np.concatenate((np.zeros((len(h), 1)), h), axis=1)))
 
 
 class ComplementaryFilter(Filter):
     name = "complementary"
+    STATE = Filter.STATE + ("buf", "head", "count", "gain")
 
     def __init__(self, n: int = 12, settings: ComplementarySettings | None = None):
         super().__init__(n)
-        self.settings = settings or ComplementarySettings()
-        self.median = MedianBuffer(self.n, self.settings.median_window)
-        self.gain = np.zeros(self.n)
+        self.settings = s = settings or ComplementarySettings()
+        if not 1 <= int(s.median_window) <= 64:
+            raise ValueError(f"median window must be 1..64, got {s.median_window}")
+        self.buf = np.zeros((self.n, int(s.median_window), 3))  # the median windows, circular
+        self.head = np.zeros(self.n, np.int64)
+        self.count = np.zeros(self.n, np.int64)
+        self.gain = np.zeros(self.n)  # alpha of the last step
+
+    def params(self) -> tuple:
+        s = self.settings
+        return float(s.static_gain), float(s.threshold1), float(s.threshold2)
 
     def observe(self, accel, mask=None) -> None:
-        self.median.push(accel, mask)
+        a = np.ascontiguousarray(np.reshape(accel, (self.n, 3)), float)
+        kernels.median_push(self.buf, self.head, self.count, a, as_mask(mask, self.n))
+
+    def median(self) -> np.ndarray:
+        """The per-axis medians (n, 3) of the accelerometer samples held (step 1)."""
+        return kernels.median_value(self.buf, self.count)
 
     def reset(self, accel=None, mask=None) -> None:
         """Eq. 3.5-3.6 from ``accel`` or, when None, from the median of the samples observed (the reset button)."""
         m = as_mask(mask, self.n)
-        a = self.median.value() if accel is None else np.asarray(accel, float).reshape(self.n, 3)
+        a = self.median() if accel is None else np.asarray(accel, float).reshape(self.n, 3)
         self.q[m] = attitude_from_gravity(a[m])
 
     def update(self, gyro, accel, dt, mask=None) -> np.ndarray:
-        m = as_mask(mask, self.n)
-        dt = np.broadcast_to(np.asarray(dt, float), (self.n,))[m]
-        a = self.median.push(accel, m)[m]  # 1
-        qw = propagate(self.q[m], np.asarray(gyro, float).reshape(self.n, 3)[m], dt)  # 2
-        an = np.linalg.norm(a, axis=1)
-        alpha = adaptive_gain(self.settings, an)  # 3
-        on = alpha > 0.0  # 4
-        gp = quat.rotate(qw[on], a[on] / an[on, None])  # 5
-        dq = to_up(gp)  # 6
-        k = alpha[on, None]
-        dq = quat.normalize((1.0 - k) * quat.IDENTITY + k * dq)  # 7
-        qw[on] = quat.normalize(quat.mul(dq, qw[on]))  # 8
-        self.q[m] = qw
-        self.gain[m] = alpha
+        srt = kernels._sorted_windows(self.buf, self.count)  # the windows sorted, as the block loop keeps them
+        args = self._sample(gyro, accel, dt, mask)
+        kernels.complementary_step(
+            self.q, self.buf, self.head, self.count, self.gain, srt, np.empty(3), *args, *self.params()
+        )
         return self.q
 
-    def state(self) -> dict:
-        return super().state() | {
-            "buf": self.median.buf.copy(),
-            "head": self.median.head.copy(),
-            "count": self.median.count.copy(),
-            "gain": self.gain.copy(),
-        }
-
-    def load_state(self, state: dict) -> None:
-        state = dict(state)
-        for k in ("buf", "head", "count"):
-            setattr(self.median, k, np.array(state.pop(k), dtype=getattr(self.median, k).dtype, copy=True))
-        super().load_state(state)
+    def block(self, gyro, accel, dt, mask, out) -> None:
+        kernels.complementary(
+            self.q, self.buf, self.head, self.count, self.gain, gyro, accel, dt, mask, *self.params(), out
+        )

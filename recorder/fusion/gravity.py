@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from recorder.fusion import kernels
+
 
 def roll_pitch(accel) -> tuple[np.ndarray, np.ndarray]:
     """Eq. 3.5: (roll about x, pitch about y) in radians from accelerometer readings (..., 3)."""
@@ -34,7 +36,6 @@ def attitude_from_gravity(accel) -> np.ndarray:
 def gain_factor(accel_norm, t1: float = 0.1, t2: float = 0.2) -> np.ndarray:
     """Eq. 3.17 and 3.19, how far to trust the accelerometer: e_m = | |a| - 1 | (a in g); 1 up to t1, falling
     linearly to 0 at t2 ((t2 - e_m) / (t2 - t1); the thesis writes / t1, the same for its 0.1 / 0.2), 0 beyond
-    and for NaN."""
-    em = np.abs(np.asarray(accel_norm, float) - 1.0)
-    with np.errstate(invalid="ignore"):
-        return np.where(em <= t1, 1.0, np.where(em < t2, (t2 - em) / (t2 - t1), 0.0))
+    and for NaN. The kernels' own function (recorder/fusion/kernels.py ``_gain_factor``) for every value."""
+    a = np.asarray(accel_norm, float)
+    return kernels.gain_factors(np.ascontiguousarray(a.ravel()), float(t1), float(t2)).reshape(a.shape)

@@ -13,7 +13,9 @@ Per raw frame, in this order (docs/fusion.md):
    eq. 3.3 for the distal phalanges (recorder/hand/joints.py);
 7. joint-constraint feedback (Kortier et al.: the constraint as a measurement): the heading each measured
    segment needs to satisfy its joint's dimensionality is fed back into C and the bias tracker.
-Pose frames (fused on the glove) pass through: their quaternions are kept and the joint angles computed.
+Steps 3-7 are recorder/fusion/pipeline.py ``run`` (numba, on the filters' step kernels), the same code for one
+frame (``process``) and for a block (``process_block``). Pose frames (fused on the glove) pass through: their
+quaternions are kept and the joint angles computed.
 An EventFrame BUTTON (the glove's reset button) resets the reference pose, as ``reset()`` does (a key).
 """
 
@@ -24,15 +26,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from recorder import quat
-from recorder.fusion import kernels, pipeline
+from recorder.fusion import pipeline
 from recorder.fusion.bias import BiasTracker
 from recorder.fusion.config import FusionConfig
-from recorder.fusion.gravity import gain_factor
 from recorder.fusion.quality import NONFINITE, InputCheck
 from recorder.fusion.registry import make_filter
-from recorder.hand import calibration as cal
-from recorder.hand import joints
-from recorder.hand.kinematics import N_JOINTS, relative_quats
+from recorder.hand import calibration as cal, joints
+from recorder.hand.kinematics import N_JOINTS
 from recorder.hand.skeleton import JOINT_MAP, N_IMUS, N_SEGMENTS, PARENTS
 from recorder.protocol.frames import (
     MPU_TEMP_OFFSET_C,
@@ -42,10 +42,6 @@ from recorder.protocol.frames import (
     PoseFrame,
     RawFrame,
 )
-
-UP = np.array([0.0, 0.0, 1.0])
-_IMU_SEG = np.array(JOINT_MAP)
-_NO_IMU = [s for s in range(N_SEGMENTS) if s not in JOINT_MAP]
 
 
 @dataclass
@@ -126,10 +122,6 @@ def _joint_imus() -> list[tuple[int, ...]]:
 
 JOINT_IMUS = _joint_imus()
 _TABLES = pipeline.hand_tables()
-_PARENT_SEG = np.array([max(PARENTS[s], 0) for s in JOINT_MAP])
-_PARENT_IMU = np.array([JOINT_MAP.index(PARENTS[s]) if PARENTS[s] in JOINT_MAP else -1 for s in JOINT_MAP])
-_PARENT_IMU_SAFE = np.maximum(_PARENT_IMU, 0)
-_IMU_KIND = _TABLES["kind"][list(JOINT_MAP)]
 _JOINT_IMU_MASK = np.zeros((N_JOINTS, N_IMUS), bool)
 for _j, _imus in enumerate(JOINT_IMUS):
     _JOINT_IMU_MASK[_j, list(_imus)] = True
@@ -257,15 +249,17 @@ class HostFusion:
         accel = raw[..., 0:3].astype(float) * (accel_fs_g / 32768.0) - cal_.accel_offset
         gyro = np.radians(raw[..., 3:6].astype(float) * (gyro_fs_dps / 32768.0)) - cal_.gyro_bias
         out = _Out(T)
+        run = fuse.copy()  # what the filters take: an IMU's first sample initialises it instead
         k = 0
         while k < T:
-            fresh = fuse[k:] & ~self.started
-            first = int(np.argmax(fresh.any(axis=1))) + k if fresh.any() else T
-            if first > k:  # frames where every fused IMU has started: one compiled call (or the reference)
-                self._steps(k, first, accel, gyro, t_us, fuse, out)
-            if first < T:  # an IMU's first sample: the reference step initialises it
-                self._step(first, accel[first], gyro[first], int(t_us[first]), fuse[first], out)
-            k = first + 1
+            new = fuse[k] & ~self.started
+            if new.any():
+                self._first_sample(new, accel[k], int(t_us[k]))
+                run[k] &= ~new
+            fresh = (fuse[k + 1 :] & ~self.started).any(axis=1)
+            stop = k + 1 + int(np.argmax(fresh)) if fresh.any() else T
+            self._run(k, stop, accel, gyro, t_us, run, out)
+            k = stop
         valid = ~(~fuse[:, None, :] & _JOINT_IMU_MASK[None]).any(axis=2)
         return Fused(
             _seq(seq, T),
@@ -281,17 +275,20 @@ class HostFusion:
             out.heading,
         )
 
-    def _steps(self, k0, k1, accel, gyro, t_us, fuse, out) -> None:
-        if self.config.engine == "numpy" or not kernels.AVAILABLE:
-            for k in range(k0, k1):
-                self._step(k, accel[k], gyro[k], int(t_us[k]), fuse[k], out)
-            return
+    def _first_sample(self, new, accel, t_us: int) -> None:
+        """IMUs ``new`` (12,) bool seen for the first time: attitude from gravity (eq. 3.5-3.6), their clock
+        starts, and their heading reference from the hand model in its reference pose (eq. 3.21)."""
+        self.filter.reset(accel, new)
+        self.started |= new
+        self.last_t[new] = t_us
+        self.C[new] = cal.reference(self.filter.q, self.calibration.mounts, self.reference_angles)[new]
+
+    def _run(self, k0, k1, accel, gyro, t_us, fuse, out) -> None:
+        """Frames k0..k1 through pipeline.run, the state arrays updated in place and the outputs into ``out``."""
         c, f, tr = self.config, self.filter, self.tracker
-        s = f.settings
         kind = pipeline.KINDS[c.filter]
         if kind == 0:
-            fp, med = [s.static_gain, s.threshold1, s.threshold2], f.median
-            buf, head, count, gain = med.buf, med.head, med.count, f.gain
+            buf, head, count, gain = f.buf, f.head, f.count, f.gain
         else:
             buf, head, count, gain = (
                 np.zeros((N_IMUS, 1, 3)),
@@ -299,18 +296,11 @@ class HostFusion:
                 np.zeros(N_IMUS, np.int64),
                 np.zeros(N_IMUS),
             )
-            fp = {
-                1: lambda: [s.kp, s.ki, s.threshold1, s.threshold2, s.integral_limit],
-                2: lambda: [s.beta, s.threshold1, s.threshold2],
-                3: lambda: [s.kp, s.ki, s.root_kp, s.root_ki, s.threshold1, s.threshold2, s.integral_limit],
-            }[kind]()
         if kind == 3:
-            rel, root_q, root_bias = f.rel, f.root.q, f.root.bias
-            parents, order = f.parents.astype(np.int64), np.asarray(f.order, np.int64)
+            rel, root_q, root_bias, parents, order = f.rel, f.root_q, f.root_bias, f.parents, f.order
         else:
             rel, root_q, root_bias = np.zeros((N_IMUS, 4)), np.zeros((N_IMUS, 4)), np.zeros((N_IMUS, 3))
             parents, order = np.full(N_IMUS, -1, np.int64), np.arange(N_IMUS, dtype=np.int64)
-        b = c.bias
         tab = _TABLES
         sl = slice(k0, k1)
         pipeline.run(
@@ -326,11 +316,11 @@ class HostFusion:
             root_bias,
             parents,
             order,
-            np.array(fp, float),
-            bool(getattr(s, "rotate_parent_rate", True)),
+            np.array(f.params(), float),
+            bool(getattr(f.settings, "rotate_parent_rate", True)),
             tr.b,
             tr.still_for,
-            np.array([b.ki, b.still_rate, b.still_time_s, b.still_tau_s, b.max_bias], float),
+            tr.params(),
             tr.use_gravity,
             c.track_bias,
             self.C,
@@ -365,67 +355,6 @@ class HostFusion:
             out.constraint[sl],
             out.heading[sl],
         )
-
-    # ------------------------------------------------------------------ one step (the numpy reference)
-    def _step(self, k, accel, gyro, t_us, fuse, out) -> None:
-        c = self.config
-        new = fuse & ~self.started
-        if new.any():  # an IMU seen for the first time: attitude from gravity, reference from the model
-            self.filter.reset(accel, new)
-            self.started |= new
-            self.last_t[new] = t_us
-            self.C[new] = cal.reference(self.filter.q, self.calibration.mounts, self.reference_angles)[new]
-            fuse = fuse & ~new
-        dt = ((t_us - self.last_t) & 0xFFFFFFFF) * 1e-6
-        dt = np.clip(dt, 0.0, c.max_dt_s)
-        self.last_t = np.where(fuse, t_us, self.last_t)
-        an = np.linalg.norm(accel, axis=1)
-        trust = gain_factor(an)
-        q = self.filter.update(gyro - self.tracker.b, accel, dt, fuse)
-        if c.track_bias:
-            self.tracker.update(gyro, accel, q, trust, dt, fuse)
-        seg = quat.mul(quat.mul(self.C, q), quat.conj(self.calibration.mounts))
-        g16 = np.tile(quat.IDENTITY, (N_SEGMENTS, 1))
-        g16[_IMU_SEG] = seg
-        for s in _NO_IMU:
-            g16[s] = g16[PARENTS[s]]
-        rel = relative_quats(g16)
-        free = joints.joint_angles(rel, limits=False, interpolate=False)
-        crel = joints.constrained_relative(free)
-        crel[0] = g16[0]
-        # each joint's heading error: where the parent's estimate and the constrained joint put the child
-        cl = quat.mul(g16[_PARENT_SEG], crel[_IMU_SEG])
-        err = quat.mul(cl, quat.conj(seg))
-        axis = quat.rotate(cl, np.where((_IMU_KIND == 2)[:, None], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]))
-        # the part of a heading change (about world z) the joint can see, in the world: for a hinge all but the
-        # part about its axis, for a 2-DoF joint only the twist about the bone
-        seen = np.where((_IMU_KIND == 2)[:, None], UP - axis[:, 2:3] * axis, axis[:, 2:3] * axis)
-        vis = np.sum(seen * UP, axis=1)
-        both = fuse & fuse[_PARENT_IMU_SAFE] & (_PARENT_IMU >= 0) & (vis >= c.min_visibility)
-        e = np.where(both, 2.0 * np.arctan2(err[:, 3], err[:, 0]), 0.0)
-        e = (e + np.pi) % (2 * np.pi) - np.pi
-        psi = (1.0 - c.parent_share) * e  # the child turns towards the joint's allowed rotations ...
-        np.add.at(psi, _PARENT_IMU_SAFE, -c.parent_share * e)  # ... and the parent towards the child
-        bvec = (1.0 - c.parent_share) * e[:, None] * seen  # the same for the bias, along what the joint sees
-        np.add.at(bvec, _PARENT_IMU_SAFE, -c.parent_share * e[:, None] * seen)
-        if c.heading_rate > 0.0:
-            step = c.heading_rate * dt * psi
-            self.C = quat.normalize(quat.mul(quat.from_axis_angle(UP, step), self.C))
-            self.heading += step
-            if c.track_bias and c.heading_bias_rate > 0.0:
-                self.tracker.add_heading(bvec, q, c.heading_bias_rate * dt, fuse)
-        angles = joints.clip(free) if c.limits else free
-        angles = joints.interpolate_dip(angles)
-        quats = joints.constrained_relative(angles)
-        quats[0] = g16[0]
-        out.quats[k] = quats
-        out.angles[k] = angles
-        out.accel_error[k] = np.abs(an - 1.0)
-        out.trust[k] = trust
-        out.bias_change[k] = np.linalg.norm(self.tracker.b + self.filter.bias, axis=1)
-        out.constraint[k] = quat.angle_between(rel[_IMU_SEG], crel[_IMU_SEG])
-        out.constraint[k, 0] = 0.0
-        out.heading[k] = self.heading
 
 
 class _Out:

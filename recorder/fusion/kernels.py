@@ -1,7 +1,10 @@
-"""Compiled (numba) versions of the filters' update steps, looping over samples and IMUs: the block API and
-the live path use these; the numpy classes stay the readable reference, and tests/test_fusion_block.py checks
-that both give the same quaternions (to 1e-9). Without numba, ``AVAILABLE`` is False and callers fall back
-on the numpy classes. Every kernel updates the state arrays in place and writes q after each sample to out.
+"""The fusion's one implementation: numba kernels for every filter's update step (and the bias tracker's), each
+over all IMUs of one sample, and the block loops over T samples built on the same step functions. The filter
+classes (recorder/fusion/complementary.py, mahony.py, madgwick.py, relative.py, bias.py) hold the settings and
+the state and document the maths; ``update`` calls a step kernel, ``filter_block`` the block loop, and the host
+pipeline (recorder/fusion/pipeline.py) the step kernels. Every kernel updates the state arrays in place (C
+contiguous float64, int64 for the median heads and counts, bool masks) and a block loop writes q after each
+sample to out. ``NUMBA_DISABLE_JIT=1`` runs the same code as plain Python (for a debugger).
 """
 
 from __future__ import annotations
@@ -9,16 +12,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-
-try:
-    from numba import njit
-
-    AVAILABLE = True
-except ImportError:  # pragma: no cover - numba is an optional speed-up
-    AVAILABLE = False
-
-    def njit(*args, **kwargs):
-        return (lambda f: f) if not args or not callable(args[0]) else args[0]
+from numba import njit
 
 
 @njit(cache=True)
@@ -68,6 +62,15 @@ def _gain_factor(norm, t1, t2):
 
 
 @njit(cache=True)
+def gain_factors(norm, t1, t2):
+    """_gain_factor for every value of the 1-D array norm."""
+    out = np.empty(norm.shape[0])
+    for k in range(norm.shape[0]):
+        out[k] = _gain_factor(norm[k], t1, t2)
+    return out
+
+
+@njit(cache=True)
 def _insert(v, n, x):
     """Insert x into the sorted v[:n] (room for n + 1)."""
     j = n
@@ -101,6 +104,46 @@ def _sorted_windows(buf, count):
 
 
 @njit(cache=True)
+def _push(buf, head, count, i, x):
+    """Write sample x (3,) at IMU i's buffer head; the head advances modulo the window, the count grows to it."""
+    window = buf.shape[1]
+    h = head[i]
+    for c in range(3):
+        buf[i, h, c] = x[c]
+    head[i] = (h + 1) % window
+    if count[i] < window:
+        count[i] += 1
+
+
+@njit(cache=True)
+def _middle(v, m):
+    """The median of the sorted v[:m]: the middle value (odd m), the mean of the two middle ones (even m), 0 for
+    m = 0."""
+    if m == 0:
+        return 0.0
+    return v[m // 2] if m & 1 else 0.5 * (v[m // 2 - 1] + v[m // 2])
+
+
+@njit(cache=True)
+def median_push(buf, head, count, accel, mask):
+    """Push accel (n, 3) into the median windows of the masked IMUs, without filtering."""
+    for i in range(buf.shape[0]):
+        if mask[i]:
+            _push(buf, head, count, i, accel[i])
+
+
+@njit(cache=True)
+def median_value(buf, count):
+    """The per-axis medians (n, 3) of the samples held ((0, 0, 0) while a window is empty)."""
+    srt = _sorted_windows(buf, count)
+    out = np.empty((buf.shape[0], 3))
+    for i in range(buf.shape[0]):
+        for c in range(3):
+            out[i, c] = _middle(srt[i, c], count[i])
+    return out
+
+
+@njit(cache=True)
 def complementary_step(q, buf, head, count, gain, srt, a, gyro, accel, dt, mask, static_gain, t1, t2):
     """recorder/fusion/complementary.py, steps 1-8, one sample of every IMU (gyro, accel (n, 3), dt, mask (n,)).
     srt (n, 3, window): each median window kept sorted (from _sorted_windows): a push removes the sample it
@@ -117,14 +160,10 @@ def complementary_step(q, buf, head, count, gain, srt, a, gyro, accel, dt, mask,
                 _insert(srt[i, c], m - 1, accel[i, c])
             else:
                 _insert(srt[i, c], m, accel[i, c])
-            buf[i, h, c] = accel[i, c]
-        head[i] = (h + 1) % window
-        if m < window:
-            m += 1
-            count[i] = m
+        _push(buf, head, count, i, accel[i])
+        m = count[i]
         for c in range(3):
-            v = srt[i, c]
-            a[c] = v[m // 2] if m & 1 else 0.5 * (v[m // 2 - 1] + v[m // 2])
+            a[c] = _middle(srt[i, c], m)
         w, x, y, z = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
         hd = 0.5 * dt[i]
         hx, hy, hz = hd * gyro[i, 0], hd * gyro[i, 1], hd * gyro[i, 2]
@@ -156,7 +195,7 @@ def complementary_step(q, buf, head, count, gain, srt, a, gyro, accel, dt, mask,
 
 @njit(cache=True)
 def complementary(q, buf, head, count, gain, gyro, accel, dt, mask, static_gain, t1, t2, out):
-    """The complementary filter over (T, n) samples; q after each sample into out (T, n, 4)."""
+    """complementary_step over (T, n) samples; q after each sample into out (T, n, 4)."""
     srt = _sorted_windows(buf, count)
     a = np.empty(3)
     for t in range(gyro.shape[0]):
@@ -212,6 +251,7 @@ def mahony_step(q, bias, gyro, accel, dt, mask, kp, ki, t1, t2, il):
 
 @njit(cache=True)
 def mahony(q, bias, gyro, accel, dt, mask, kp, ki, t1, t2, il, out):
+    """mahony_step over (T, n) samples; q after each sample into out (T, n, 4)."""
     for t in range(gyro.shape[0]):
         mahony_step(q, bias, gyro[t], accel[t], dt[t], mask[t], kp, ki, t1, t2, il)
         out[t] = q
@@ -254,6 +294,7 @@ def madgwick_step(q, gyro, accel, dt, mask, beta, t1, t2):
 
 @njit(cache=True)
 def madgwick(q, gyro, accel, dt, mask, beta, t1, t2, out):
+    """madgwick_step over (T, n) samples; q after each sample into out (T, n, 4)."""
     for t in range(gyro.shape[0]):
         madgwick_step(q, gyro[t], accel[t], dt[t], mask[t], beta, t1, t2)
         out[t] = q
@@ -337,7 +378,13 @@ def relative_step(
             (gyro[i, 2] - oz + kp * ez - bias[i, 2]) * h,
         )
         rel[i, 0], rel[i, 1], rel[i, 2], rel[i, 3] = _normalize(*_mul(w, x, y, z, rw, rx, ry, rz))
-    for k in range(n):
+    relative_compose(q, rel, root_q, root_bias, bias, parents, order)
+
+
+@njit(cache=True)
+def relative_compose(q, rel, root_q, root_bias, bias, parents, order):
+    """q down the IMU tree in ``order`` (parents first): a root's own (and its bias), q_c = q_p (x) r_c."""
+    for k in range(order.shape[0]):
         i = order[k]
         p = parents[i]
         if p < 0:
@@ -374,6 +421,7 @@ def relative(
     rotate_parent,
     out,
 ):
+    """relative_step over (T, n) samples; q after each sample into out (T, n, 4)."""
     for t in range(gyro.shape[0]):
         relative_step(
             q,
@@ -397,3 +445,45 @@ def relative(
             rotate_parent,
         )
         out[t] = q
+
+
+@njit(cache=True)
+def bias_step(b, still_for, gyro, accel, q, trust, dt, mask, bp, use_gravity):
+    """recorder/fusion/bias.py sources 1 and 2, one sample of every IMU: gyro (n, 3) with the static bias but not
+    b removed, q (n, 4) the filter's new orientations, trust (n,), dt (n,), mask (n,); bp: BiasSettings (ki,
+    still_rate, still_time_s, still_tau_s, max_bias). b and still_for are updated in place."""
+    for i in range(b.shape[0]):
+        r0, r1, r2 = gyro[i, 0] - b[i, 0], gyro[i, 1] - b[i, 1], gyro[i, 2] - b[i, 2]
+        if use_gravity and bp[0] > 0.0 and mask[i]:
+            ax, ay, az = accel[i, 0], accel[i, 1], accel[i, 2]
+            an = math.sqrt(ax * ax + ay * ay + az * az)
+            if an > 0.0:
+                ax, ay, az = ax / an, ay / an, az / an
+            else:
+                ax = ay = az = 0.0
+            vx, vy, vz = _rotate(q[i, 0], -q[i, 1], -q[i, 2], -q[i, 3], 0.0, 0.0, 1.0)
+            k = bp[0] * trust[i] * dt[i]
+            b[i, 0] -= k * (ay * vz - az * vy)
+            b[i, 1] -= k * (az * vx - ax * vz)
+            b[i, 2] -= k * (ax * vy - ay * vx)
+        still = mask[i] and max(abs(r0), abs(r1), abs(r2)) < bp[1] and trust[i] >= 1.0
+        still_for[i] = still_for[i] + dt[i] if still else 0.0
+        if still and still_for[i] >= bp[2]:
+            k = min(dt[i] / bp[3], 1.0)
+            b[i, 0] += k * r0
+            b[i, 1] += k * r1
+            b[i, 2] += k * r2
+        for c in range(3):
+            b[i, c] = min(max(b[i, c], -bp[4]), bp[4])
+
+
+@njit(cache=True)
+def bias_heading(b, q, seen, gain, mask):
+    """recorder/fusion/bias.py source 3: b -= gain seen for the masked IMUs, seen (n, 3) mapped from the world
+    into each IMU's axes by q (n, 4); gain (n,)."""
+    for i in range(b.shape[0]):
+        if mask[i]:
+            ux, uy, uz = _rotate(q[i, 0], -q[i, 1], -q[i, 2], -q[i, 3], seen[i, 0], seen[i, 1], seen[i, 2])
+            b[i, 0] -= gain[i] * ux
+            b[i, 1] -= gain[i] * uy
+            b[i, 2] -= gain[i] * uz

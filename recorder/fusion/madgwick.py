@@ -4,6 +4,9 @@ One step for IMU i (q = (w, x, y, z) maps IMU axes to the world, as Madgwick's q
 1. a_n = a / |a|; f = R(q)^T (0, 0, 1) - a_n, the objective; J its Jacobian in q.
 2. s = J^T f / |J^T f|, the normalised gradient, weighted by the accelerometer trust f(e_m) of thesis eq. 3.19.
 3. q = normalise(q + (q (x) (0, gyro) / 2 - beta s) dt).
+With d = (0, 0, 1) (Madgwick eq. 25-26): f = (2 (x z - w y) - a_x, 2 (w x + y z) - a_y, 1 - 2 (x^2 + y^2) - a_z)
+and J^T f = (-2y f1 + 2x f2, 2z f1 + 2w f2 - 4x f3, -2w f1 + 2z f2 - 4y f3, 2x f1 + 2y f2); no step when the
+accelerometer is not trusted or reads zero. The maths: recorder/fusion/kernels.py ``madgwick_step``.
 """
 
 from __future__ import annotations
@@ -12,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from recorder import quat
+from recorder.fusion import kernels
 from recorder.fusion.base import Filter
 
 
@@ -23,24 +26,6 @@ class MadgwickSettings:
     threshold2: float = 0.2
 
 
-def gradient(q, a_n) -> np.ndarray:
-    """J^T f of Madgwick eq. 25-26 with d = (0, 0, 1): (n, 4)."""
-    w, x, y, z = q.T
-    ax, ay, az = a_n.T
-    f1 = 2.0 * (x * z - w * y) - ax
-    f2 = 2.0 * (w * x + y * z) - ay
-    f3 = 1.0 - 2.0 * (x * x + y * y) - az
-    return np.stack(
-        (
-            -2.0 * y * f1 + 2.0 * x * f2,
-            2.0 * z * f1 + 2.0 * w * f2 - 4.0 * x * f3,
-            -2.0 * w * f1 + 2.0 * z * f2 - 4.0 * y * f3,
-            2.0 * x * f1 + 2.0 * y * f2,
-        ),
-        axis=1,
-    )
-
-
 class MadgwickFilter(Filter):
     name = "madgwick"
 
@@ -48,14 +33,13 @@ class MadgwickFilter(Filter):
         super().__init__(n)
         self.settings = settings or MadgwickSettings()
 
-    def update(self, gyro, accel, dt, mask=None) -> np.ndarray:
+    def params(self) -> tuple:
         s = self.settings
-        m, dt, a, an, trust = self._inputs(accel, dt, mask, s.threshold1, s.threshold2)
-        q = self.q[m]
-        grad = gradient(q, np.where(trust > 0.0, a / np.where(an > 0.0, an, 1.0), 0.0))  # 1
-        gn = np.linalg.norm(grad, axis=1, keepdims=True)
-        step = trust * np.where(gn > 0.0, grad / np.where(gn > 0.0, gn, 1.0), 0.0)  # 2
-        g = np.asarray(gyro, float).reshape(self.n, 3)[m]
-        qdot = 0.5 * quat.mul(q, np.concatenate((np.zeros((len(g), 1)), g), axis=1)) - s.beta * step
-        self.q[m] = quat.normalize(q + qdot * dt)  # 3
+        return float(s.beta), float(s.threshold1), float(s.threshold2)
+
+    def update(self, gyro, accel, dt, mask=None) -> np.ndarray:
+        kernels.madgwick_step(self.q, *self._sample(gyro, accel, dt, mask), *self.params())
         return self.q
+
+    def block(self, gyro, accel, dt, mask, out) -> None:
+        kernels.madgwick(self.q, gyro, accel, dt, mask, *self.params(), out)

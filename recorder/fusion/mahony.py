@@ -11,7 +11,8 @@ One step for IMU i:
 5. w = gyro + kp e + I (steps 9-10).
 6. q = q (x) exp(w dt / 2) (steps 11-12: the paper integrates R + R w dt and projects back onto SO(3); the
    exponential is the exact rotation for a constant rate).
-``bias`` is -I, the estimated gyro bias (rad/s).
+``bias`` is -I, the estimated gyro bias (rad/s). The maths: recorder/fusion/kernels.py ``mahony_step`` (one IMU:
+``_mahony_step``, also the relative filter's root).
 """
 
 from __future__ import annotations
@@ -20,10 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from recorder import quat
+from recorder.fusion import kernels
 from recorder.fusion.base import Filter
-
-UP = np.array([0.0, 0.0, 1.0])
 
 
 @dataclass
@@ -42,16 +41,13 @@ class MahonyFilter(Filter):
         super().__init__(n)
         self.settings = settings or MahonySettings()
 
-    def update(self, gyro, accel, dt, mask=None) -> np.ndarray:
+    def params(self) -> tuple:
         s = self.settings
-        m, dt, a, an, trust = self._inputs(accel, dt, mask, s.threshold1, s.threshold2)
-        a_n = np.where(trust > 0.0, a / np.where(an > 0.0, an, 1.0), 0.0)  # 1
-        q = self.q[m]
-        v = quat.rotate(quat.conj(q), UP)  # 2
-        e = trust * np.cross(a_n, v)  # 3
-        small = np.linalg.norm(e, axis=1, keepdims=True) < s.integral_limit
-        bias = self.bias[m] - np.where(small, s.ki * e * dt, 0.0)  # 4
-        w = np.asarray(gyro, float).reshape(self.n, 3)[m] + s.kp * e - bias  # 5
-        self.q[m] = quat.normalize(quat.mul(q, quat.from_rotvec(w * dt)))  # 6
-        self.bias[m] = bias
+        return float(s.kp), float(s.ki), float(s.threshold1), float(s.threshold2), float(s.integral_limit)
+
+    def update(self, gyro, accel, dt, mask=None) -> np.ndarray:
+        kernels.mahony_step(self.q, self.bias, *self._sample(gyro, accel, dt, mask), *self.params())
         return self.q
+
+    def block(self, gyro, accel, dt, mask, out) -> None:
+        kernels.mahony(self.q, self.bias, gyro, accel, dt, mask, *self.params(), out)

@@ -1,14 +1,15 @@
-"""The compiled host pipeline: recorder/fusion/host.py ``HostFusion._step`` (the numpy reference) for a block
-of frames in one call, steps 3-7 of host.py's docstring. tests/test_fusion_block.py checks both agree."""
+"""The host pipeline, steps 3-7 of recorder/fusion/host.py's docstring, for a block of frames in one call (one
+frame live): the one implementation HostFusion runs, on the filters' step kernels (recorder/fusion/kernels.py)."""
 
 from __future__ import annotations
 
 import math
 
 import numpy as np
+from numba import njit
 
 from recorder.fusion import kernels as K
-from recorder.fusion.kernels import _mul, _normalize, _rotate, njit
+from recorder.fusion.kernels import _mul, _normalize, _rotate
 from recorder.hand import joints
 from recorder.hand.kinematics import DIP, DIP_PER_PIP, LIMITS, PIP, REST
 from recorder.hand.skeleton import JOINT_MAP, N_SEGMENTS, PARENTS
@@ -263,7 +264,7 @@ def run(
     o_constraint,
     o_heading,
 ):
-    """HostFusion._step over T frames; every state array is updated in place. fp: the filter's settings
+    """Steps 3-7 of host.py over T frames; every state array is updated in place. fp: the filter's settings
     (complementary: gain, t1, t2; mahony: kp, ki, t1, t2, integral_limit; madgwick: beta, t1, t2; relative: kp,
     ki, root_kp, root_ki, t1, t2, integral_limit); bp: BiasSettings (ki, still_rate, still_time_s, still_tau_s,
     max_bias)."""
@@ -272,7 +273,7 @@ def run(
     scratch = np.empty(3)
     dt = np.empty(n)
     gc = np.empty((n, 3))
-    rate = np.empty((n, 3))
+    kb = np.empty(n)
     trust = np.empty(n)
     seg = np.empty((n, 4))
     g16 = np.empty((N_SEGMENTS, 4))
@@ -322,35 +323,8 @@ def run(
                 fp[6],
                 rotate_parent,
             )
-        if track_bias:  # BiasTracker.update
-            for i in range(n):
-                for c in range(3):
-                    rate[i, c] = gyro[t, i, c] - b[i, c]
-            if use_gravity and bp[0] > 0.0:
-                for i in range(n):
-                    if not fuse[t, i]:
-                        continue
-                    ax, ay, az = accel[t, i, 0], accel[t, i, 1], accel[t, i, 2]
-                    an = math.sqrt(ax * ax + ay * ay + az * az)
-                    if an > 0.0:
-                        ax, ay, az = ax / an, ay / an, az / an
-                    else:
-                        ax = ay = az = 0.0
-                    vx, vy, vz = _rotate(q[i, 0], -q[i, 1], -q[i, 2], -q[i, 3], 0.0, 0.0, 1.0)
-                    k = bp[0] * trust[i] * dt[i]
-                    b[i, 0] -= k * (ay * vz - az * vy)
-                    b[i, 1] -= k * (az * vx - ax * vz)
-                    b[i, 2] -= k * (ax * vy - ay * vx)
-            for i in range(n):
-                r = max(abs(rate[i, 0]), abs(rate[i, 1]), abs(rate[i, 2]))
-                still = fuse[t, i] and r < bp[1] and trust[i] >= 1.0
-                still_for[i] = still_for[i] + dt[i] if still else 0.0
-                if still and still_for[i] >= bp[2]:
-                    k = min(dt[i] / bp[3], 1.0)
-                    for c in range(3):
-                        b[i, c] += k * rate[i, c]
-                for c in range(3):
-                    b[i, c] = min(max(b[i, c], -bp[4]), bp[4])
+        if track_bias:
+            K.bias_step(b, still_for, gyro[t], accel[t], q, trust, dt, fuse[t], bp, use_gravity)
         for i in range(n):
             w, x, y, z = _mul(C[i, 0], C[i, 1], C[i, 2], C[i, 3], q[i, 0], q[i, 1], q[i, 2], q[i, 3])
             seg[i, 0], seg[i, 1], seg[i, 2], seg[i, 3] = _mul(
@@ -391,12 +365,8 @@ def run(
                 heading[i] += step
             if track_bias and heading_bias_rate > 0.0:
                 for i in range(n):
-                    if fuse[t, i]:
-                        ux, uy, uz = _rotate(q[i, 0], -q[i, 1], -q[i, 2], -q[i, 3], bvec[i, 0], bvec[i, 1], bvec[i, 2])
-                        k = heading_bias_rate * dt[i]
-                        b[i, 0] -= k * ux
-                        b[i, 1] -= k * uy
-                        b[i, 2] -= k * uz
+                    kb[i] = heading_bias_rate * dt[i]
+                K.bias_heading(b, q, bvec, kb, fuse[t])
         for i in range(n):
             o_trust[t, i] = trust[i]
             o_bias[t, i] = math.sqrt(

@@ -1,5 +1,6 @@
 """Filters by name: ``make_filter("complementary", static_gain=0.01)``. A new filter is one new file (settings
-dataclass + Filter subclass) plus one line here."""
+dataclass + Filter subclass), its step and block kernels in kernels.py, one line here, and for HostFusion a kind
+in pipeline.py's ``run``."""
 
 from __future__ import annotations
 

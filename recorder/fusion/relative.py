@@ -12,7 +12,9 @@ One step for a child IMU c with parent p and relative orientation r (c's axes ->
 6. w = Omega + kp e + I; r = r (x) exp(w dt / 2) (steps 11-13).
 Both IMUs feel the same linear acceleration when the hand translates, so unlike gravity alone the pair also
 observes the relative heading whenever the hand accelerates (Kortier et al., §Sensor fusion).
-``q`` is composed down the tree: q_c = q_p (x) r. ``bias`` holds -I, the bias of the relative rate.
+``q`` is composed down the tree: q_c = q_p (x) r. ``bias`` holds -I, the bias of the relative rate (a root's:
+its Algorithm 1 bias). The maths: recorder/fusion/kernels.py ``relative_step`` (the roots by ``_mahony_step``, the
+composition by ``relative_compose``).
 """
 
 from __future__ import annotations
@@ -22,9 +24,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from recorder import quat
+from recorder.fusion import kernels
 from recorder.fusion.base import Filter, as_mask
-from recorder.fusion.gravity import attitude_from_gravity, gain_factor
-from recorder.fusion.mahony import MahonyFilter, MahonySettings
+from recorder.fusion.gravity import attitude_from_gravity
 from recorder.hand.skeleton import JOINT_MAP, PARENTS
 
 
@@ -48,78 +50,70 @@ class RelativeSettings:
 
 class RelativeFilter(Filter):
     name = "relative"
+    STATE = Filter.STATE + ("rel", "root_q", "root_bias")
 
     def __init__(self, n: int = 12, settings: RelativeSettings | None = None, parents=None):
         super().__init__(n)
-        self.settings = s = settings or RelativeSettings()
+        self.settings = settings or RelativeSettings()
         self.parents = np.array(
             imu_parents()
             if parents is None and n == len(JOINT_MAP)
-            else (parents if parents is not None else (-1,) * n)
+            else (parents if parents is not None else (-1,) * n),
+            np.int64,
         )
-        self.order = _topological(self.parents)
+        self.order = np.array(_topological(self.parents), np.int64)
         self.child = np.flatnonzero(self.parents >= 0)
-        self.root = MahonyFilter(n, MahonySettings(s.root_kp, s.root_ki, s.threshold1, s.threshold2, s.integral_limit))
-        self.rel = np.tile(quat.IDENTITY, (n, 1))
+        self.rel = np.tile(quat.IDENTITY, (n, 1))  # r of every child (c's axes -> p's axes)
+        self.root_q = self.q.copy()  # the roots' Algorithm 1 state
+        self.root_bias = np.zeros((n, 3))
+
+    def params(self) -> tuple:
+        s = self.settings
+        return tuple(float(v) for v in (s.kp, s.ki, s.root_kp, s.root_ki, s.threshold1, s.threshold2, s.integral_limit))
 
     def reset(self, accel, mask=None) -> None:
+        """Attitude from gravity for the masked IMUs; each pair with a masked member restarts its r from the two."""
         m = as_mask(mask, self.n)
         g = np.where(m[:, None], attitude_from_gravity(np.asarray(accel, float).reshape(self.n, 3)), self.q)
-        self.root.q[m] = g[m]
-        self.root.bias[m] = 0.0
+        self.root_q[m] = g[m]
+        self.root_bias[m] = 0.0
         self.bias[m] = 0.0
         c = self.child[m[self.child] | m[self.parents[self.child]]]
         self.rel[c] = quat.mul(quat.conj(g[self.parents[c]]), g[c])
-        self._compose()
+        kernels.relative_compose(self.q, self.rel, self.root_q, self.root_bias, self.bias, self.parents, self.order)
 
     def update(self, gyro, accel, dt, mask=None) -> np.ndarray:
-        s = self.settings
-        m = as_mask(mask, self.n)
-        gyro = np.asarray(gyro, float).reshape(self.n, 3)
-        accel = np.asarray(accel, float).reshape(self.n, 3)
-        dt = np.broadcast_to(np.asarray(dt, float), (self.n,))
-        roots = m & (self.parents < 0)
-        self.root.update(gyro, accel, dt, roots)
-        c = self.child[m[self.child] & m[self.parents[self.child]]]  # both of the pair answered
-        p = self.parents[c]
-        r = self.rel[c]
-        ac, ap = accel[c], accel[p]
-        nc = np.linalg.norm(ac, axis=1, keepdims=True)
-        np_ = np.linalg.norm(ap, axis=1, keepdims=True)
-        trust = gain_factor(1.0 + np.abs(nc - np_)[:, 0], s.threshold1, s.threshold2)[:, None]
-        ok = (trust > 0.0) & (nc > 0.0) & (np_ > 0.0)
-        ac = np.where(ok, ac / np.where(ok, nc, 1.0), 0.0)  # 1
-        ap = np.where(ok, ap / np.where(ok, np_, 1.0), 0.0)
-        rt = quat.conj(r)
-        d = quat.rotate(rt, ap)  # 2
-        e = trust * np.cross(ac, d)  # 3
-        small = np.linalg.norm(e, axis=1, keepdims=True) < s.integral_limit
-        bias = self.bias[c] - np.where(small, s.ki * e * dt[c, None], 0.0)  # 4
-        parent_rate = quat.rotate(rt, gyro[p]) if s.rotate_parent_rate else gyro[p]
-        w = gyro[c] - parent_rate + s.kp * e - bias  # 5, 6
-        self.rel[c] = quat.normalize(quat.mul(r, quat.from_rotvec(w * dt[c, None])))
-        self.bias[c] = bias
-        self._compose()
+        kernels.relative_step(
+            self.q,
+            self.rel,
+            self.root_q,
+            self.root_bias,
+            self.bias,
+            self.parents,
+            self.order,
+            *self._sample(gyro, accel, dt, mask),
+            *self.params(),
+            bool(self.settings.rotate_parent_rate),
+        )
         return self.q
 
-    def _compose(self) -> None:
-        for i in self.order:
-            p = self.parents[i]
-            self.q[i] = self.root.q[i] if p < 0 else quat.mul(self.q[p], self.rel[i])
-        self.bias[self.parents < 0] = self.root.bias[self.parents < 0]
-
-    def state(self) -> dict:
-        return super().state() | {
-            "rel": self.rel.copy(),
-            "root_q": self.root.q.copy(),
-            "root_bias": self.root.bias.copy(),
-        }
-
-    def load_state(self, state: dict) -> None:
-        state = dict(state)
-        self.root.q = np.array(state.pop("root_q"), float)
-        self.root.bias = np.array(state.pop("root_bias"), float)
-        super().load_state(state)
+    def block(self, gyro, accel, dt, mask, out) -> None:
+        kernels.relative(
+            self.q,
+            self.rel,
+            self.root_q,
+            self.root_bias,
+            self.bias,
+            self.parents,
+            self.order,
+            gyro,
+            accel,
+            dt,
+            mask,
+            *self.params(),
+            bool(self.settings.rotate_parent_rate),
+            out,
+        )
 
 
 def _topological(parents) -> list[int]:

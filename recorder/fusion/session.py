@@ -1,52 +1,39 @@
-"""Host fusion for a recording session (docs/fusion.md, "Calibration"): ``load_fusion`` builds a HostFusion for
-a glove id from the fusion config and the glove's saved calibration; ``SessionFusion`` is what the recorder
-feeds every glove frame: it fuses raw frames (started from the first ``rest_s`` of them, while the hand rests),
-lets pose frames pass (the glove fused them), re-takes the reference pose at the glove's button or a key, and
-hands its ``record`` (what travels with the recording as meta/gloverec/calibration.json and in the session
-log's metadata) to its listeners once it is known.
+"""Host fusion for a glove session (docs/fusion.md, "Calibration"): ``load_fusion`` builds a HostFusion for a
+glove id from the fusion config and the glove's saved calibration; ``SessionFusion`` takes every glove frame and
+hands on a HandPose for each one that carries the hand, whatever its format: it fuses raw frames (started from
+the first ``rest_s`` of them, while the hand rests), reads pose and compact frames (the glove fused them),
+re-takes the reference pose at the glove's button or a key, and hands its ``record`` (what travels with the
+recording as meta/gloverec/calibration.json and in the session log's metadata) to its listeners once it is known.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import json
-import os
 from pathlib import Path
 
 import numpy as np
 
 from recorder import GloverecError
+from recorder.config import ConfigError, build
 from recorder.fusion.config import FusionConfig
-from recorder.fusion.host import FusedFrame, HostFusion
+from recorder.fusion.host import HostFusion
 from recorder.hand.calibration import GloveCalibration
-from recorder.hand.kinematics import N_JOINTS
+from recorder.hand.kinematics import N_JOINTS, joint_angles_from_relative
+from recorder.hand.pose import HandPose
 from recorder.hand.skeleton import N_IMUS
+from recorder.paths import calibration_dir
 from recorder.protocol.frames import EventCode, EventFrame, PoseCompactFrame, PoseFrame, RawFrame, StatusFrame
 
-CONFIG = Path(__file__).resolve().parents[2] / "configs" / "fusion" / "default.yaml"
-DIR_ENV = "GLOVEREC_CALIBRATION_DIR"
-DEFAULT_DIR = Path("datasets") / "calibration"  # relative to the working directory, like datasets/recordings
 RECORD_FILE = Path("meta") / "gloverec" / "calibration.json"
 REST_S = 1.0  # the hand rests this long at the start of a session: fusion starts from it
 STATUS_WAIT_S = 1.5  # after the rest, how long raw frames wait for a status frame (the glove id; 1 Hz)
 
 
-def calibration_folder(folder=None) -> Path:
-    """``folder``, else $GLOVEREC_CALIBRATION_DIR, else datasets/calibration (relative to the working directory)."""
-    return Path(folder or os.environ.get(DIR_ENV) or DEFAULT_DIR)
-
-
 def load_config(path=None) -> FusionConfig:
-    """FusionConfig from a YAML file (default configs/fusion/default.yaml); bad files: one-line GloverecError."""
-    import yaml
-
-    path = Path(path or CONFIG)
-    try:
-        return FusionConfig.load(path)
-    except OSError as exc:
-        raise GloverecError(f"cannot read fusion config {path}: {exc.strerror or exc}") from None
-    except (ValueError, TypeError, AttributeError, yaml.YAMLError) as exc:
-        raise GloverecError(f"bad fusion config {path}: {str(exc).splitlines()[0]}") from None
+    """The fusion config: FusionConfig's defaults, or a YAML file of overrides (configs/fusion/*.yaml are
+    variants); a bad file: one-line ConfigError naming the file and the key."""
+    return FusionConfig.load(path)
 
 
 def read_calibration(path, glove_id: int | None = None) -> GloveCalibration:
@@ -81,13 +68,14 @@ def _check_shapes(c: GloveCalibration) -> None:
             raise ValueError(f"{name} holds missing or non-finite values")
 
 
-def load_fusion(glove_id: int, calibration_dir=None, config_path=None) -> HostFusion:
-    """A HostFusion for glove ``glove_id``: the fusion config (configs/fusion/default.yaml unless
-    ``config_path``) and the glove's saved calibration (``<dir>/glove_XXXXXXXX.json``, dir as in
-    ``calibration_folder``). Without a saved calibration it fuses uncalibrated (identity mounts, no accelerometer
-    offsets, the gyro bias from the rest at ``start``) and says so: ``fusion.calibrated`` is False."""
+def load_fusion(glove_id: int, folder=None, config_path=None) -> HostFusion:
+    """A HostFusion for glove ``glove_id``: the fusion config (FusionConfig's defaults unless ``config_path``)
+    and the glove's saved calibration (``<folder>/glove_XXXXXXXX.json``, folder as in ``paths.calibration_dir``:
+    the argument, $GLOVEREC_CALIBRATION_DIR or datasets/calibration). Without a saved calibration it fuses
+    uncalibrated (identity mounts, no accelerometer offsets, the gyro bias from the rest at ``start``) and says
+    so: ``fusion.calibrated`` is False."""
     config = load_config(config_path)
-    path = GloveCalibration(glove_id=int(glove_id)).path(calibration_folder(calibration_dir))
+    path = GloveCalibration(glove_id=int(glove_id)).path(calibration_dir(folder))
     calibrated = path.exists()
     calibration = read_calibration(path, int(glove_id)) if calibrated else GloveCalibration(glove_id=int(glove_id))
     fusion = HostFusion(config, calibration)
@@ -127,12 +115,16 @@ def fusion_from_record(record: dict, source: str = "the record") -> HostFusion |
     if not record.get("host_fusion"):
         return None
     try:
-        config = FusionConfig(**record["fusion_config"])
+        # "engine" was a setting before the numba kernels became the one implementation: older records carry it
+        values = {k: v for k, v in record["fusion_config"].items() if k != "engine"}
+        config = build(FusionConfig, values, f"{source}: fusion_config")
         if record.get("calibrated"):
             calibration = GloveCalibration.from_json(json.dumps(record["calibration"]))
             _check_shapes(calibration)
         else:
             calibration = GloveCalibration(glove_id=int(record["glove_id"]))
+    except ConfigError:
+        raise
     except (ValueError, KeyError, TypeError, AttributeError) as exc:
         raise GloverecError(f"bad calibration in {source}: {str(exc).splitlines()[0] or type(exc).__name__}") from None
     fusion = HostFusion(config, calibration)
@@ -175,6 +167,8 @@ class SessionFusion:
         self._rest: list[RawFrame] = []
         self._listeners: list = []
         self._reset_requested = False
+        self._angles = np.zeros(N_JOINTS)  # the last measured value of every joint (held while not measured)
+        self._palm = np.array([1.0, 0.0, 0.0, 0.0])
 
     @classmethod
     def from_record(cls, record: dict, source: str = "the record") -> SessionFusion:
@@ -228,21 +222,37 @@ class SessionFusion:
         return self.rest_s + 0.25 if self.host else 0.0
 
     # ------------------------------------------------------------ frames
-    def process(self, frame) -> FusedFrame | None:
-        """A FusedFrame for a raw frame once fusion has started; None for every other frame."""
+    def process(self, frame) -> HandPose | None:
+        """The HandPose of a pose, compact or (once fusion has started) raw frame; None for every other frame.
+        Joints a frame does not measure (non-finite values, IMUs fusion flagged) hold their last value and are
+        marked not valid."""
         if isinstance(frame, RawFrame):
-            return self._raw(frame)
+            fused = self._raw(frame)
+            if fused is None:
+                return None
+            return self._pose(frame, fused.angles, fused.quats[0], fused.valid, fused.quality)
         if isinstance(frame, StatusFrame):
             if self.glove_id is None or self.fusion is None:
                 self.glove_id = int(frame.glove_id)
-        elif isinstance(frame, (PoseFrame, PoseCompactFrame)):
+        elif isinstance(frame, PoseFrame | PoseCompactFrame):
             if self.host is None:
                 self._decide(raw=False)
+            if isinstance(frame, PoseFrame):
+                q = np.asarray(frame.quats, float)
+                return self._pose(frame, joint_angles_from_relative(q), q[0])
+            return self._pose(frame, np.asarray(frame.angles, float), np.asarray(frame.palm_quat, float))
         elif isinstance(frame, EventFrame) and frame.code == EventCode.BUTTON:
             self._reset()
         return None
 
-    def _raw(self, frame: RawFrame) -> FusedFrame | None:
+    def _pose(self, frame, angles, palm, valid=True, quality: float = 0.0) -> HandPose:
+        valid = np.isfinite(angles) & valid
+        self._angles = np.where(valid, angles, self._angles)
+        if np.all(np.isfinite(palm)) and np.linalg.norm(palm) > 0.5:
+            self._palm = palm
+        return HandPose(self._angles, self._palm, valid, float(quality), int(frame.t_us), int(frame.rx_ns))
+
+    def _raw(self, frame: RawFrame):
         if self.started:
             if self._reset_requested:
                 self._reset()

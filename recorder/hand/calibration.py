@@ -24,6 +24,10 @@ from recorder.hand.kinematics import N_JOINTS, forward
 from recorder.hand.skeleton import JOINT_MAP, N_IMUS
 
 VERSION = 1
+# The procedure's steps and how long each is recorded (s): `gloverec calibrate` walks the user through them,
+# and the emulated wearer (recorder/emulator/procedure.py) performs them on the same clock. 4: rest flat again
+# (the reference pose), a check that the hand is back where step 1 left it.
+STEPS = {"still": 3.0, "flex": 3.0, "tilt": 8.0, "rest": 2.0}
 _Y = np.array([0.0, 1.0, 0.0])
 _UP = np.array([0.0, 0.0, 1.0])
 

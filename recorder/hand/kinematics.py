@@ -26,15 +26,7 @@ import numpy as np
 
 from recorder import quat
 from recorder.hand.skeleton import FINGER_SEGMENTS, FINGERS, N_SEGMENTS, PARENTS
-
-JOINTS = (
-    "thumb_cmc_flex",
-    "thumb_cmc_abd",
-    "thumb_mcp",
-    "thumb_ip",
-    *(f"{f}_{j}" for f in FINGERS[1:] for j in ("mcp_flex", "mcp_abd", "pip", "dip")),
-)
-N_JOINTS = len(JOINTS)
+from recorder.protocol.layout import JOINTS, N_JOINTS  # noqa: F401  (re-exported: the model's joints)
 
 # Anatomical ranges in degrees (typical active adult ranges; abduction positive toward the thumb side).
 _LIMITS_DEG = {
@@ -149,15 +141,16 @@ def interpolate_dip(angles) -> np.ndarray:
     return out
 
 
-def _relative_from_angles(angles) -> np.ndarray:
-    """Parent-relative quats (..., 16, 4) of all segments but the palm (row 0 left as identity)."""
+def relative_from_angles(angles, palm_quat=quat.IDENTITY) -> np.ndarray:
+    """Parent-relative quats (..., 16, 4) of the model at joint ``angles`` (..., 20) rad, row 0 the palm's
+    orientation ``palm_quat`` (what a pose frame carries, less each phalanx's twist; NaN angles, NaN rows)."""
     a = np.asarray(angles, dtype=float)
     ext = np.concatenate((a, np.zeros(a.shape[:-1] + (1,))), axis=-1)
     flex = ext[..., _FLEX]
     abd = ext[..., _ABD]
     swing = quat.mul(quat.from_axis_angle(_Z, abd), quat.from_axis_angle(_Y, flex))
     rel = quat.mul(REST, swing)
-    rel[..., 0, :] = quat.IDENTITY
+    rel[..., 0, :] = np.broadcast_to(np.asarray(palm_quat, dtype=float), rel.shape[:-2] + (4,))
     return rel
 
 
@@ -187,9 +180,7 @@ def forward(angles, palm_quat, size: HandSize = HandSize()):
     the palm's is the wrist) in metres, relative to the palm origin but expressed in world axes; and
     tips (..., 5, 3) fingertip positions, same frame, thumb first.
     """
-    rel = _relative_from_angles(angles)
-    palm = np.broadcast_to(np.asarray(palm_quat, dtype=float), rel.shape[:-2] + (4,))
-    rel[..., 0, :] = palm
+    rel = relative_from_angles(angles, palm_quat)
     g = global_from_relative(rel)
     lengths = size.lengths()
     bases = size.bases()

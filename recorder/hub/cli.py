@@ -11,9 +11,10 @@ import functools
 import json
 
 from recorder import GloverecError
-from recorder.hub.names import DEFAULT_HUB, HUB_ENV
+from recorder.hub import hf
+from recorder.paths import HUB_ENV
 
-HUB_HELP = f"the hub folder (default: ${HUB_ENV}, else {DEFAULT_HUB} in the current directory)"
+HUB_HELP = f"the hub folder (default: ${HUB_ENV}, else datasets/hub in the current directory)"
 REPO_HELP = "dataset id, USER/NAME"
 
 
@@ -73,12 +74,9 @@ def _one_line(handler):
 
 @_one_line
 def cmd_push(args: argparse.Namespace) -> int:
-    from recorder.hub import hf
-    from recorder.hub.store import Hub
-
     if args.to_hf:
         hf.require_online()  # before anything is written
-    hub = Hub(args.hub)
+    hub = _hub(args.hub)
     version = hub.push(args.root, args.repo_id)
     twin = hub.twin(version)
     out = {**_describe(version), "latest": str(hub.link(args.repo_id)), "same_as": twin.tag if twin else None}
@@ -105,9 +103,7 @@ def cmd_push(args: argparse.Namespace) -> int:
 
 @_one_line
 def cmd_hub_list(args: argparse.Namespace) -> int:
-    from recorder.hub.store import Hub
-
-    hub = Hub(args.hub)
+    hub = _hub(args.hub)
     repos = [
         {
             "repo_id": rid,
@@ -132,9 +128,7 @@ def cmd_hub_list(args: argparse.Namespace) -> int:
 
 @_one_line
 def cmd_hub_verify(args: argparse.Namespace) -> int:
-    from recorder.hub.store import Hub
-
-    hub = Hub(args.hub)
+    hub = _hub(args.hub)
     report = hub.verify(args.repo_id, args.version)
     if args.json:
         print(
@@ -180,9 +174,7 @@ def cmd_hub_verify(args: argparse.Namespace) -> int:
 
 @_one_line
 def cmd_hub_pull(args: argparse.Namespace) -> int:
-    from recorder.hub.store import Hub
-
-    hub = Hub(args.hub)
+    hub = _hub(args.hub)
     version = hub.pull(args.repo_id, args.version, args.root)
     out = {**_describe(version), "root": args.root}
     if args.json:
@@ -220,3 +212,9 @@ def _size(n: float) -> str:
     while n >= 1000 and i < len(units) - 1:
         n, i = n / 1000, i + 1
     return f"{n:.0f} B" if i == 0 else f"{n:.1f} {units[i]}"
+
+
+def _hub(folder):
+    from recorder.hub.store import Hub  # pyarrow: not at start-up
+
+    return Hub(folder)

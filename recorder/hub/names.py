@@ -1,23 +1,14 @@
-"""Names in the hub: repo ids (USER/NAME), version tags (vN) and where the hub folder is."""
+"""Names in the hub: repo ids (USER/NAME) and version tags (vN). Where the hub folder is: recorder/paths.py."""
 
 from __future__ import annotations
 
-import os
 import re
-from pathlib import Path
 
 from recorder import GloverecError
 
-HUB_ENV = "GLOVEREC_HUB"
-DEFAULT_HUB = "datasets/hub"
 # one part of a repo id: what the Hugging Face Hub accepts, minus anything a path could misread
 _PART = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,95}")
 _VERSION = re.compile(r"v?([1-9][0-9]{0,8})")
-
-
-def hub_root(arg: str | os.PathLike | None = None) -> Path:
-    """The hub folder: ``--hub`` if given, else $GLOVEREC_HUB, else ``datasets/hub`` under the current directory."""
-    return Path(arg or os.environ.get(HUB_ENV) or DEFAULT_HUB)
 
 
 def parse_repo_id(text: str) -> tuple[str, str]:

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from recorder import GloverecError, __version__
 from recorder.hub import atomic, dataset, manifest, names
+from recorder.paths import HUB_ENV, hub_dir
 
 _VERSION_DIR = re.compile(r"(?P<name>[A-Za-z0-9][A-Za-z0-9._-]*)@v(?P<number>[1-9][0-9]*)")
 
@@ -67,10 +68,10 @@ class Report:
 
 
 class Hub:
-    """A local hub folder (``names.hub_root`` picks it: --hub, $GLOVEREC_HUB or datasets/hub)."""
+    """A local hub folder (``paths.hub_dir`` picks it: --hub, $GLOVEREC_HUB or datasets/hub)."""
 
     def __init__(self, root: str | os.PathLike | None = None):
-        self.root = names.hub_root(root)
+        self.root = hub_dir(root)
 
     # ------------------------------------------------------------ reading
 
@@ -308,7 +309,7 @@ class Hub:
 
     def _require(self) -> None:
         if not self.root.is_dir():
-            raise GloverecError(f"no hub at {self.root} (push a dataset first, or pass --hub or set {names.HUB_ENV})")
+            raise GloverecError(f"no hub at {self.root} (push a dataset first, or pass --hub or set {HUB_ENV})")
 
 
 def _clear_link_slot(link: Path) -> None:

@@ -1,6 +1,6 @@
-"""Glove sources: serial ports, UDP, MCAP playback. All deliver decoded frames stamped with host time."""
+"""Glove links: serial ports and UDP. Each delivers decoded frames stamped with host time (recorder/link/base.py);
+recorder.glove opens the right one for a glove config."""
 
 from recorder.link.base import GloveSource, LinkStats
-from recorder.link.sources import open_source
 
-__all__ = ["GloveSource", "LinkStats", "open_source"]
+__all__ = ["GloveSource", "LinkStats"]

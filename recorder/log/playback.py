@@ -23,6 +23,7 @@ from typing import NamedTuple
 from mcap.data_stream import ReadDataStream
 from mcap.exceptions import McapError, UnsupportedCompressionError
 from mcap.opcode import Opcode
+from mcap.reader import SeekingReader
 from mcap.records import Channel, Chunk, DataEnd, Footer, Header, Message, Metadata, Schema
 from mcap.stream_reader import breakup_chunk
 
@@ -238,7 +239,6 @@ def read_log(path: str) -> LogInfo:
 
 
 def _read_summary(path: str) -> LogInfo | None:
-    from mcap.reader import SeekingReader
 
     try:
         with open(path, "rb") as f:

@@ -19,21 +19,19 @@ import threading
 import time
 
 import numpy as np
+from mcap.writer import LIBRARY_IDENTIFIER, CompressionType, Writer
 
 from recorder import GloverecError, __version__
-from recorder.hand.kinematics import JOINTS
-from recorder.hand.skeleton import SEGMENTS
 from recorder.protocol.frames import (
     CLOCK_HOST_MONOTONIC,
+    VERSION as PROTOCOL_VERSION,
     EventFrame,
     PoseCompactFrame,
     PoseFrame,
     RawFrame,
     StatusFrame,
 )
-from recorder.protocol.frames import (
-    VERSION as PROTOCOL_VERSION,
-)
+from recorder.protocol.layout import JOINTS, SEGMENTS
 
 LOG_FORMAT = "gloverec-log"
 LOG_VERSION = 1
@@ -162,7 +160,6 @@ SCHEMAS = {
 
 
 def _compression():
-    from mcap.writer import CompressionType
 
     try:
         import zstandard  # noqa: F401
@@ -298,7 +295,6 @@ class McapLogger:
 
     def _start(self, meta: dict, boundary: bool, wall_ns: int, mono_ns: int, chunk_size: int) -> None:
         """Header, the session metadata, the channels and their schemas (they go into the first chunk)."""
-        from mcap.writer import LIBRARY_IDENTIFIER, Writer
 
         self._writer = Writer(self._file, chunk_size=chunk_size, compression=_compression())
         self._writer.start(library=f"gloverec/{__version__} {LIBRARY_IDENTIFIER}")

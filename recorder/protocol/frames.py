@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from recorder.hand.skeleton import JOINT_MAP, MEASURED_MASK, MUX_MAP, N_SEGMENTS
+from recorder.protocol.layout import JOINT_MAP, MEASURED_MASK, MUX_MAP, N_JOINTS, N_SEGMENTS
 
 VERSION = 1
 Q14 = 16384.0  # pose quaternion fixed point: 1.0 == 16384
@@ -15,7 +15,7 @@ MPU_TEMP_SENSITIVITY = 333.87  # LSB/degC, MPU9250 datasheet; degC = raw / 333.8
 MPU_TEMP_OFFSET_C = 21.0
 ANGLE_LSB = np.pi / 1800.0  # pose_compact joint angles: 12-bit integers of 0.1 degree
 ANGLE_MISSING = -2048  # pose_compact: the joint angle is not available (NaN)
-N_ANGLES = 20  # recorder.hand.kinematics.JOINTS
+N_ANGLES = N_JOINTS  # pose_compact: the joint angles of layout.JOINTS
 
 
 class FrameKind(enum.IntEnum):
@@ -79,7 +79,7 @@ class PoseFrame:
 class PoseCompactFrame:
     """The hand in 52 bytes (docs/protocol.md, pose_compact): ``palm_quat`` (4,) float32, the palm's
     orientation (w, x, y, z) as in a pose frame, and ``angles`` (20,) float32, the joint angles of
-    recorder.hand.kinematics.JOINTS in radians (NaN: not available)."""
+    recorder.protocol.layout.JOINTS in radians (NaN: not available)."""
 
     seq: int
     t_us: int
@@ -87,15 +87,6 @@ class PoseCompactFrame:
     angles: np.ndarray
     rx_ns: int = 0
     kind = FrameKind.POSE_COMPACT
-
-    def relative_quats(self) -> np.ndarray:
-        """The 16 parent-relative quaternions (16, 4) float64 of the hand model at these angles, palm first: what
-        a pose frame carries, less each phalanx's twist (kinematics.forward; NaN angles give NaN segments)."""
-        from recorder.hand.kinematics import forward, relative_quats
-
-        rel = relative_quats(forward(np.asarray(self.angles, np.float64), (1.0, 0.0, 0.0, 0.0))[0])
-        rel[0] = self.palm_quat
-        return rel
 
 
 @dataclass(slots=True)

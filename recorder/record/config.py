@@ -1,68 +1,87 @@
-"""RecordConfig: what `gloverec record` does, from configs/record/default.yaml and the command line."""
+"""RecordConfig: what `gloverec record` does. The defaults are here; `--config FILE` (a YAML file of these keys,
+e.g. configs/record/shadow_grasp.yaml) and then the command-line flags override them (recorder/config.py)."""
 
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Annotated, Literal
 
-from recorder import GloverecError
-from recorder.settings import load_values
+from pydantic import AfterValidator
 
-DEFAULTS = Path(__file__).resolve().parents[2] / "configs" / "record" / "default.yaml"
+from recorder import config as cfg
+from recorder.config import STRICT, NonNegative, Positive, setting
+from recorder.glove.config import GloveConfig
+from recorder.paths import recordings_dir
+
 REPO_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*/[A-Za-z0-9][A-Za-z0-9._-]*$")
+CAMERAS = ("front", "top", "side")
+
+
+def repo_id(value: str) -> str:
+    """A dataset id USER/NAME; ValueError otherwise."""
+    if not REPO_ID.match(value or "") or ".." in value:
+        raise ValueError(f"bad repo id {value!r}: expected USER/NAME (letters, digits, . _ -)")
+    return value
+
+
+RepoId = Annotated[str, AfterValidator(repo_id)]
 
 
 @dataclass
 class RecordConfig:
-    glove: str = "emulator"
-    robot: str = "glovehand"
-    task: str = "pose"
-    fps: int = 30
-    episodes: int = 10
-    episode_time_s: float | None = None
-    reset_time_s: float = 2.0
-    repo_id: str = "local/glove_demos"
-    root: str | None = None
-    resume: bool = False
-    cameras: list = field(default_factory=list)
-    image_size: list = field(default_factory=lambda: [128, 128])
-    realtime: bool | None = None  # None: real time for real gloves, fast for the emulator and logs
-    retarget: str = "joint"
-    seed: int = 0
-    glove_rate_hz: float = 200.0
-    glove_mode: str = "pose"
-    log: bool = True
-    task_text: str | None = None
+    __pydantic_config__ = STRICT
+
+    glove: GloveConfig = setting(
+        default_factory=GloveConfig,
+        help="emulator, serial:PORT (or a device path), udp:PORT, udp:HOST:PORT or mcap:FILE",
+        metavar="GLOVE",
+        flags={"rate_hz": "--glove-rate", "mode": "--glove-mode"},
+    )
+    robot: str = setting("glovehand", "a robot of configs/robots/ (glovehand, shadow)")
+    task: str = setting("pose", "pose or grasp")
+    fps: Annotated[int, Positive] = setting(30, "dataset frames per second (the environment's control rate)")
+    episodes: Annotated[int, Positive] = setting(10, "episodes to save")
+    episode_time_s: Annotated[float, Positive] | None = setting(None, "longest episode (default: the task's)")
+    reset_time_s: Annotated[float, NonNegative] = setting(
+        2.0, "pause between episodes; the glove's button or → starts the next one early"
+    )
+    repo_id: RepoId = setting("local/glove_demos", "dataset id, USER/NAME")
+    root: str | None = setting(None, "dataset folder (default: datasets/recordings/USER/NAME)")
+    resume: bool = setting(False, "add episodes to an existing recording", flag="--resume")
+    cameras: tuple[Literal["front", "top", "side"], ...] = setting(
+        (), "comma-separated cameras to record (front, top, side)", metavar="CAM,CAM"
+    )
+    image_size: tuple[Annotated[int, Positive], Annotated[int, Positive]] = setting(
+        (128, 128), "camera images, height and width", metavar="H,W"
+    )
+    realtime: bool | None = setting(
+        None,
+        "wall-clock pacing (default for serial and UDP gloves)",
+        flag="--realtime",
+        negation="--fast",
+        negation_help="as fast as the glove delivers (default for the emulator and logs)",
+    )
+    retarget: Literal["joint", "ik"] = setting("joint", "retargeting mode")
+    seed: int = setting(0, "episode k of a session resets the environment with seed + k")
+    log: bool = setting(True, "no raw MCAP log of the session beside the dataset", flag="--no-log")
+    task_text: str | None = setting(None, "the task string stored with every frame (default: the task's)")
 
     @classmethod
     def load(cls, path: str | Path | None = None, **overrides) -> RecordConfig:
-        """Defaults, then the YAML file (configs/record/default.yaml unless ``path``), then ``overrides``."""
-        source = Path(path) if path else DEFAULTS
-        values = load_values(cls, source, bool(path), overrides, "record")
-        cfg = cls(**values)
-        cfg.validate()
-        return cfg
+        """Defaults, then the YAML file ``path`` (if any), then ``overrides`` (None: not given)."""
+        return cfg.load(cls, path, overrides=overrides)
+
+    @property
+    def glove_config(self) -> GloveConfig:
+        """The glove, its emulated wearer seeded with the session's seed."""
+        return GloveConfig.parse(self.glove, seed=self.seed)
 
     @property
     def is_fast(self) -> bool:
-        return (not self.glove.startswith(("serial:", "udp:", "/"))) if self.realtime is None else not self.realtime
+        return not self.glove.is_device if self.realtime is None else not self.realtime
 
     @property
     def root_path(self) -> Path:
-        return Path(self.root) if self.root else Path("datasets/recordings") / self.repo_id
-
-    def validate(self) -> None:
-        if not REPO_ID.match(self.repo_id or "") or ".." in self.repo_id:
-            raise GloverecError(f"bad repo id {self.repo_id!r}: expected USER/NAME (letters, digits, . _ -)")
-        for name in ("fps", "episodes"):
-            if not isinstance(getattr(self, name), int) or getattr(self, name) <= 0:
-                raise GloverecError(f"{name} must be a positive whole number, not {getattr(self, name)!r}")
-        if self.episode_time_s is not None and self.episode_time_s <= 0:
-            raise GloverecError("episode_time_s must be positive")
-        if self.reset_time_s < 0:
-            raise GloverecError("reset_time_s must be zero or positive")
-        if self.glove_mode not in ("pose", "raw"):
-            raise GloverecError(f"glove_mode must be pose or raw, not {self.glove_mode!r}")
-        if self.retarget not in ("joint", "ik"):
-            raise GloverecError(f"retarget must be joint or ik, not {self.retarget!r}")
+        return Path(self.root) if self.root else recordings_dir() / self.repo_id

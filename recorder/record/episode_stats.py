@@ -18,7 +18,11 @@ from __future__ import annotations
 
 from contextlib import contextmanager
 
+import datasets.arrow_dataset as ad
+import lerobot.datasets.lerobot_dataset as ld
 import numpy as np
+from datasets.fingerprint import generate_random_fingerprint
+from lerobot.datasets.compute_stats import compute_episode_stats
 
 QUANTILES = (0.01, 0.10, 0.50, 0.90, 0.99)  # lerobot's DEFAULT_QUANTILES and their keys q01 ... q99
 KEYS = tuple(f"q{int(q * 100):02d}" for q in QUANTILES)
@@ -45,7 +49,6 @@ def vector_stats(data) -> dict[str, np.ndarray]:
 
 def episode_stats(episode_data: dict, features: dict, quantile_list=None) -> dict:
     """Drop-in for lerobot's ``compute_episode_stats``: exact for numeric features of two or more frames."""
-    from lerobot.datasets.compute_stats import compute_episode_stats
 
     exact, rest = {}, {}
     for key, data in episode_data.items():
@@ -65,9 +68,6 @@ def episode_stats(episode_data: dict, features: dict, quantile_list=None) -> dic
 def lerobot_save_speedups(features: dict):
     """Within this scope lerobot's ``save_episode`` uses ``episode_stats`` and, when no feature is an image
     stored in the parquet files, skips ``embed_images``."""
-    import datasets.arrow_dataset as ad
-    import lerobot.datasets.lerobot_dataset as ld
-    from datasets.fingerprint import generate_random_fingerprint
 
     saved = ld.compute_episode_stats, ld.embed_images, ad.generate_fingerprint
     ld.compute_episode_stats = episode_stats

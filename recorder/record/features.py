@@ -1,45 +1,146 @@
-"""The dataset's features: what the environment observes, the action it applied, the human hand before
-retargeting, per-frame quality and the real clocks. Names come from the environment, so every column of a
-recorded dataset says what it is."""
+"""The dataset's schema: what the environment observes, the action it applied, the human hand before retargeting,
+per-frame quality and the real clocks. ``DatasetSchema(env)`` gives lerobot its feature specs and turns each
+``Row`` the recording loop fills into a dataset frame, so every column is declared once, here, with its names
+(from the environment for the robot's) and its meaning.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
 from recorder.hand.kinematics import JOINTS
+from recorder.hand.pose import HandPose
 
-GLOVE_NAMES = [*(f"{j}.rad" for j in JOINTS), "palm.qw", "palm.qx", "palm.qy", "palm.qz"]
-QUALITY = {
-    "quality.latency_ms": "glove sample -> applied action, real time only (-1: not measured, fast mode)",
-    "quality.glove_age_ms": "how far the newest glove sample lagged the frame time (0: interpolated)",
-    "quality.retarget_error_mm": "mean robot vs scaled human fingertip distance",
-    "quality.fusion": "host fusion's disturbance estimate (0: glove-side fusion or none)",
-}
-TIMES = {
-    "time.host_s": "host monotonic clock at the frame's tick",
-    "time.device_s": "glove device clock at the frame time (unwrapped; -1 for legacy JSON gloves)",
-}
+GLOVE_NAMES = (*(f"{j}.rad" for j in JOINTS), "palm.qw", "palm.qx", "palm.qy", "palm.qz")
 
 
-def _vec(names, dtype="float32") -> dict:
-    return {"dtype": dtype, "shape": (len(names),), "names": list(names)}
+@dataclass(frozen=True)
+class Row:
+    """One frame as the loop sees it: the observation before the step, the action the environment applied, the
+    glove's pose at the frame time, and how it got there."""
+
+    obs: dict
+    action: np.ndarray
+    pose: HandPose
+    latency_s: float | None  # glove sample -> applied action (None: not measured, faster than real time)
+    age_s: float  # how far the newest glove sample used lagged the frame time
+    retarget_error_m: float
+    host_s: float
+    device_s: float
+    task: str
 
 
-def dataset_features(env, use_videos: bool) -> dict:
-    """LeRobot feature specs for an (unwrapped) gloverec HandEnv."""
-    feats = {
-        "observation.state": _vec(env.state_names),
-        "observation.environment_state": _vec(env.environment_state_names),
-        "action": _vec(env.action_names),
-        "observation.glove": _vec(GLOVE_NAMES),
-    }
-    h, w = env.config.image_size
-    for cam in env.config.cameras:
-        feats[f"observation.images.{cam}"] = {
-            "dtype": "video" if use_videos else "image",
-            "shape": (h, w, 3),
-            "names": ["height", "width", "channels"],
-        }
-    for key in QUALITY:
-        feats[key] = _vec([key.split(".", 1)[1]])
-    for key in TIMES:
-        feats[key] = _vec([key.split(".", 1)[1]], "float64")
-    return feats
+@dataclass(frozen=True)
+class Feature:
+    key: str
+    names: tuple
+    value: Callable[[Row], object]
+    description: str
+    dtype: str = "float32"
+
+
+def _scalar(x: float | None, dtype=np.float32, missing: float = -1.0) -> np.ndarray:
+    return np.array([missing if x is None else x], dtype)
+
+
+def _vector(key: str) -> Callable[[Row], np.ndarray]:
+    return lambda row: row.obs[key]
+
+
+class DatasetSchema:
+    """The features of a recording of ``env`` (an unwrapped gloverec HandEnv); ``use_videos``: cameras as video."""
+
+    def __init__(self, env, use_videos: bool):
+        self.features = [
+            Feature(
+                "observation.state",
+                tuple(env.state_names),
+                _vector("observation.state"),
+                "the robot: joint positions, velocities, palm pose (before the step)",
+            ),
+            Feature(
+                "observation.environment_state",
+                tuple(env.environment_state_names),
+                _vector("observation.environment_state"),
+                "the task: its goal or object",
+            ),
+            Feature("action", tuple(env.action_names), lambda r: r.action, "the action the environment applied"),
+            Feature(
+                "observation.glove",
+                GLOVE_NAMES,
+                lambda r: r.pose.vector(),
+                "the human hand before retargeting: joint angles (rad), palm orientation",
+            ),
+            Feature(
+                "quality.glove_valid",
+                tuple(f"{j}.valid" for j in JOINTS),
+                lambda r: r.pose.valid.astype(np.float32),
+                "1: the joint was measured in the samples used; 0: it held its last value",
+            ),
+            Feature(
+                "quality.latency_ms",
+                ("latency_ms",),
+                lambda r: _scalar(None if r.latency_s is None else r.latency_s * 1e3),
+                "glove sample -> applied action, real time only (-1: not measured, fast mode)",
+            ),
+            Feature(
+                "quality.glove_age_ms",
+                ("glove_age_ms",),
+                lambda r: _scalar(r.age_s * 1e3),
+                "how far the newest glove sample lagged the frame time (0: interpolated)",
+            ),
+            Feature(
+                "quality.retarget_error_mm",
+                ("retarget_error_mm",),
+                lambda r: _scalar(r.retarget_error_m * 1e3),
+                "mean robot vs scaled human fingertip distance",
+            ),
+            Feature(
+                "quality.fusion",
+                ("fusion",),
+                lambda r: _scalar(r.pose.quality),
+                "host fusion's disturbance estimate (0: glove-side fusion or none)",
+            ),
+            Feature(
+                "time.host_s",
+                ("host_s",),
+                lambda r: _scalar(r.host_s, np.float64),
+                "host monotonic clock at the frame's tick",
+                "float64",
+            ),
+            Feature(
+                "time.device_s",
+                ("device_s",),
+                lambda r: _scalar(r.device_s, np.float64),
+                "glove device clock at the frame time (unwrapped; -1 for legacy JSON gloves)",
+                "float64",
+            ),
+        ]
+        h, w = env.config.image_size
+        self.images = {f"observation.images.{cam}": (h, w, 3) for cam in env.config.cameras}
+        self.use_videos = use_videos
+
+    def lerobot_features(self) -> dict:
+        """LeRobot feature specs."""
+        feats = {f.key: {"dtype": f.dtype, "shape": (len(f.names),), "names": list(f.names)} for f in self.features}
+        for key, shape in self.images.items():
+            feats[key] = {
+                "dtype": "video" if self.use_videos else "image",
+                "shape": shape,
+                "names": ["height", "width", "channels"],
+            }
+        return feats
+
+    def descriptions(self) -> dict:
+        return {f.key: f.description for f in self.features}
+
+    def frame(self, row: Row) -> dict:
+        """The dataset frame of ``row``: every feature, the camera images and the task string."""
+        frame = {f.key: f.value(row) for f in self.features}
+        for key in self.images:
+            frame[key] = row.obs[key]
+        frame["task"] = row.task
+        return frame

@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 
 from recorder import GloverecError
-from recorder.record.store import read_sidecar
+from recorder.record.config import REPO_ID
+from recorder.record.sidecar import read_sidecar
 
 COLUMNS = (
     "frames",
@@ -24,7 +25,7 @@ COLUMNS = (
 
 
 def load_meta(repo_id: str, root: Path):
-    from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
+    from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata  # inspect is a CLI module: not at start-up
 
     if not (root / "meta" / "info.json").is_file():
         raise GloverecError(f"{root} is not a LeRobot dataset (no meta/info.json)")
@@ -58,7 +59,7 @@ def _action_state_pairs(action_names, state_names, robot: str | None) -> list[tu
     joints = None
     if robot:
         try:
-            from envs.robots import load_robot
+            from envs.robots import load_robot  # mujoco: only when a robot is named
 
             m = load_robot(robot).model
             joints = [m.joint(m.actuator_trnid[i, 0]).name for i in range(m.nu)]
@@ -74,11 +75,11 @@ def _action_state_pairs(action_names, state_names, robot: str | None) -> list[tu
 
 def plot_episode(repo_id: str, root: Path, episode: int, out: Path) -> Path:
     """A PNG grid: per actuated joint, the action (target) and the joint position it produced."""
-    import matplotlib
+    import matplotlib  # the Agg backend must be chosen before pyplot loads: both here
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset  # not at start-up
 
     meta = load_meta(repo_id, root)
     if not 0 <= episode < meta.total_episodes:
@@ -127,7 +128,6 @@ def add_parsers(sub) -> None:
 
 
 def dataset_root(repo_id: str, root: str | None, hub: str | None) -> Path:
-    from recorder.record.config import REPO_ID
 
     if not REPO_ID.match(repo_id) or ".." in repo_id:
         raise GloverecError(f"bad repo id {repo_id!r}: expected USER/NAME (letters, digits, . _ -)")

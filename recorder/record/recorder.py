@@ -2,7 +2,7 @@
 environment, written frame by frame into a crash-safe LeRobot dataset.
 
 Each frame k of an episode, at glove time tick_k = start + k / fps:
-  glove pose at tick_k (SLERP between the samples around it) -> joint angles -> retarget -> env.step
+  glove pose at tick_k (interpolated between the samples around it) -> retarget -> env.step
   -> one dataset frame: the observation *before* the step, the action the env applied (after clipping),
   the human pose, quality, and the real clocks. So action[k] moves state[k] to state[k+1], and lerobot's
   timestamps are k / fps.
@@ -20,14 +20,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+import envs
 from recorder import GloverecError
-from recorder.hand.kinematics import joint_angles_from_relative
+from recorder.demonstrator import make_demonstrator
+from recorder.glove.glove import Glove, make_glove
+from recorder.log.writer import McapLogger
 from recorder.record.config import RecordConfig
 from recorder.record.control import NEXT, RERECORD, STOP, Control
-from recorder.record.features import dataset_features
-from recorder.record.glove_input import GloveInput
+from recorder.record.features import DatasetSchema, Row
 from recorder.record.store import EpisodeStore
 from recorder.record.writer import EpisodeWriter
+from recorder.retarget import Retargeter
 
 FIRST_SAMPLE_TIMEOUT_S = 5.0
 
@@ -83,9 +86,6 @@ class Recorder:
     def __init__(self, cfg: RecordConfig, control: Control | None = None, out=sys.stderr, plan=None):
         """``plan``: (seed, device_start_s, frames) per episode, to re-record a log's episodes exactly
         (`gloverec rerecord`); episodes then start at those device times instead of at buttons or keys."""
-        import envs
-        from recorder.retarget import Retargeter
-
         self.cfg = cfg
         self.plan = list(plan) if plan is not None else None
         self.fast = cfg.is_fast
@@ -104,17 +104,15 @@ class Recorder:
             raise GloverecError(str(exc)) from None
         self.u = self.env.unwrapped
         self.retarget = Retargeter(cfg.robot, cfg.retarget, base_rotation=self.u.config.base_rotation)
-        self.demonstrator = None
-        if cfg.glove == "emulator":
-            from recorder.demonstrator import make_demonstrator
-
-            self.demonstrator = make_demonstrator(cfg.task)
-        self.features = dataset_features(self.u, use_videos=bool(cfg.cameras))
+        glove = cfg.glove_config
+        scripted = glove.kind == "emulator" and (glove.motion or "demonstrations") == "demonstrations"
+        self.demonstrator = make_demonstrator(cfg.task) if scripted else None
+        self.schema = DatasetSchema(self.u, use_videos=bool(cfg.cameras))
         self.store = EpisodeStore(
             cfg.root_path,
             cfg.repo_id,
             cfg.fps,
-            self.features,
+            self.schema.lerobot_features(),
             robot_type=cfg.robot,
             resume=cfg.resume,
             use_videos=bool(cfg.cameras),
@@ -129,9 +127,7 @@ class Recorder:
 
     def _open_session(self, control) -> None:
         cfg = self.cfg
-        self.glove = GloveInput(
-            cfg.glove, self.fast, rate_hz=cfg.glove_rate_hz, mode=cfg.glove_mode, seed=cfg.seed, fusion=self._fusion()
-        )
+        self.glove = make_glove(cfg.glove_config, fast=self.fast, motion="demonstrations")
         self.glove.fusion.keep_in(self.store.work, self._say)  # meta/gloverec/calibration.json, before any episode
         self.logger = None
         self.log_rel = None
@@ -143,29 +139,14 @@ class Recorder:
         self.delay_s = 0.0  # real time: set per episode from the glove's measured sample interval
         self._last_line = 0.0
 
-    def _fusion(self):
-        """Host fusion for the session (recorder/fusion/session.py): the glove's saved calibration
-        ($GLOVEREC_CALIBRATION_DIR or datasets/calibration), or for a log (`rerecord`) the one it was recorded with."""
-        from recorder.fusion.session import SessionFusion
-
-        if self.cfg.glove.startswith("mcap:"):
-            from recorder.log.playback import log_calibration
-
-            record = log_calibration(self.cfg.glove[len("mcap:") :])
-            if record is not None:
-                return SessionFusion.from_record(record, self.cfg.glove)
-        return SessionFusion()
-
     def _open_log(self) -> None:
-        from recorder.log.writer import McapLogger
-
         logs = self.store.work / "logs"
         logs.mkdir(parents=True, exist_ok=True)
         name = time.strftime("session-%Y%m%d-%H%M%S.mcap")
         self.logger = McapLogger(
             logs / name,
             {
-                "source": self.cfg.glove,
+                "source": str(self.cfg.glove_config),
                 "repo_id": self.cfg.repo_id,
                 "robot": self.cfg.robot,
                 "task": self.cfg.task,
@@ -189,7 +170,7 @@ class Recorder:
         try:
             self.glove.open()
             self._say(
-                f"recording {cfg.episodes} episode(s) of {cfg.task} on {cfg.robot} from {self.glove.spec} "
+                f"recording {cfg.episodes} episode(s) of {cfg.task} on {cfg.robot} from {self.glove.name} "
                 f"({'faster than real time' if self.fast else 'real time'}) into {cfg.root_path}"
             )
             while recorded < (cfg.episodes if self.plan is None else len(self.plan) + recorded):
@@ -274,7 +255,7 @@ class Recorder:
         g = self.glove
         if self.fast:
             if not g.wait_past(float("-inf"), FIRST_SAMPLE_TIMEOUT_S):
-                raise GloverecError(f"no glove frames from {g.spec} in {FIRST_SAMPLE_TIMEOUT_S:.0f} s")
+                raise GloverecError(f"no glove frames from {g.name} in {FIRST_SAMPLE_TIMEOUT_S:.0f} s")
         if self.demonstrator is None:
             g.buttons.clear()  # a press from before the reset period does not skip it
         begin = g.now()
@@ -297,7 +278,7 @@ class Recorder:
             if g.finished and g.poll() == 0:
                 return None
             if time.monotonic() > wall_end and g.track.newest_s is None:
-                raise GloverecError(f"no glove frames from {g.spec}: is it connected and sending?")
+                raise GloverecError(f"no glove frames from {g.name}: is it connected and sending?")
             if self.fast and g.track.newest_s is not None:
                 g.wait_past(g.now() + self.period)  # let glove time advance
 
@@ -309,7 +290,7 @@ class Recorder:
         stats = EpisodeStats(decode0=dict(src.decoder.stats.as_dict()), drops0=src.stats().queue_drops)
         n_max = frames or int(round(u.config.episode_s * cfg.fps))
         if not self.fast:  # read 1.5 samples behind, so the sample after the frame time has nearly always come
-            self.delay_s = float(np.clip(1.5 * g.track.interval_s(1.0 / cfg.glove_rate_hz), 1e-3, 0.05))
+            self.delay_s = float(np.clip(1.5 * g.track.interval_s(1.0 / cfg.glove.rate_hz), 1e-3, 0.05))
         device_start = None
         host0 = time.monotonic() - (g.now() - start) if not self.fast else time.monotonic()
         success, outcome, stop_after = False, "saved", False
@@ -332,33 +313,28 @@ class Recorder:
                 g.poll()
                 if not g.connected:
                     return self._lost(index)
-            pose = g.track.at(tick - self.delay_s)
-            if pose is None:
+            at = g.track.at(tick - self.delay_s)
+            if at is None:
                 return self._lost(index)
-            stats.held += pose.held
+            stats.held += at.held
+            device_time = self._device_time(at, tick - self.delay_s)
             if device_start is None:
-                device_start = self._device_time(pose, tick - self.delay_s)
-            angles = joint_angles_from_relative(pose.quats)
-            action, rinfo = self.retarget(angles, pose.quats[0])
-            sample = pose.extra  # (t_us, rx_ns, fusion quality) of the newest sample used
-            t_act = time.monotonic()
-            latency = -1e-3 if self.fast else t_act - pose.newest_s  # -1 ms: not measured (no wall clock)
+                device_start = device_time
+            action, rinfo = self.retarget(at.pose.angles, at.pose.palm)
+            latency = None if self.fast else time.monotonic() - at.newest_s  # fast: no wall clock to measure
             nxt, _, terminated, truncated, info = self.env.step(action)
-            frame = {
-                "observation.state": obs["observation.state"],
-                "observation.environment_state": obs["observation.environment_state"],
-                "action": info["applied_action"],
-                "observation.glove": np.concatenate((angles, pose.quats[0])).astype(np.float32),
-                "quality.latency_ms": np.float32([latency * 1e3]),
-                "quality.glove_age_ms": np.float32([pose.age_s * 1e3]),
-                "quality.retarget_error_mm": np.float32([rinfo["tip_error_mean"] * 1e3]),
-                "quality.fusion": np.float32([sample.quality or 0.0]),
-                "time.host_s": np.float64([host_tick]),
-                "time.device_s": np.float64([self._device_time(pose, tick - self.delay_s)]),
-                "task": self.task_text,
-            }
-            for cam in u.config.cameras:
-                frame[f"observation.images.{cam}"] = obs[f"observation.images.{cam}"]
+            row = Row(
+                obs,
+                info["applied_action"],
+                at.pose,
+                latency,
+                at.age_s,
+                rinfo["tip_error_mean"],
+                host_tick,
+                device_time,
+                self.task_text,
+            )
+            frame = self.schema.frame(row)
             self.store.add_frame(frame)
             stats.frames += 1
             if not self.fast:
@@ -390,7 +366,7 @@ class Recorder:
             "robot": cfg.robot,
             "env_task": cfg.task,
             "fps": cfg.fps,
-            "glove": g.spec,
+            "glove": g.name,
             "realtime": not self.fast,
             "retarget": cfg.retarget,
             "start_glove_time_s": start,
@@ -426,13 +402,13 @@ class Recorder:
         self.glove.track = type(self.glove.track)()
         return "lost", None
 
-    def _device_time(self, pose, t: float) -> float:
+    def _device_time(self, at, t: float) -> float:
         """The glove's device clock (s, unwrapped) at loop time ``t``; -1 for gloves without one."""
         if self.fast:
             return t
-        if pose.extra.t_us < 0:
+        if at.pose.t_us < 0:
             return -1.0
-        return self.glove.source.clock.unwrap(pose.extra.t_us, pose.extra.rx_ns) - (pose.newest_s - t)
+        return self.glove.source.clock.unwrap(at.pose.t_us, at.pose.rx_ns) - (at.newest_s - t)
 
     # ------------------------------------------------------------ reporting
     def _say(self, text: str) -> None:
@@ -461,7 +437,7 @@ def task_text(task: str, info: dict) -> str:
     return task
 
 
-def _log_range(logger, start: float, g: GloveInput, frames: int, period: float) -> dict:
+def _log_range(logger, start: float, g: Glove, frames: int, period: float) -> dict:
     """The episode's span in the MCAP log's time base (ns since the epoch)."""
     if g.fast:
         return {"glove_time_start_s": start, "glove_time_end_s": start + frames * period}

@@ -25,11 +25,15 @@ import shutil
 import time
 from pathlib import Path
 
+import datasets
+from lerobot.datasets.lerobot_dataset import LeRobotDataset
+from lerobot.datasets.utils import DEFAULT_DATA_FILE_SIZE_IN_MB, DEFAULT_VIDEO_FILE_SIZE_IN_MB
+
 from recorder import GloverecError
 from recorder.record.episode_stats import lerobot_save_speedups
+from recorder.record.sidecar import append_sidecar
 
 STATE_SUFFIX = ".gloverec"
-SIDECAR = "meta/gloverec/episodes.jsonl"  # our per-episode metadata, one JSON object per line
 IMMUTABLE = ("data/", "meta/episodes/", "videos/", "logs/")  # never rewritten once closed (session logs: only
 # appended, so a snapshot's hard link sees the ranges of its episodes and, later, more). The live session log is
 # not fsynced at each publish (an fsync of a file being written stalls the glove reader's writes to it for tens
@@ -70,8 +74,6 @@ def _clone(src: Path, dst: Path, published_info: bool, durable: set | None = Non
         if rel.startswith(IMMUTABLE):
             os.link(p, out)
         elif published_info and rel == "meta/info.json":
-            from lerobot.datasets.utils import DEFAULT_DATA_FILE_SIZE_IN_MB, DEFAULT_VIDEO_FILE_SIZE_IN_MB
-
             info = json.loads(p.read_text())  # the working copy's tiny file limits are not for readers
             info["data_files_size_in_mb"] = DEFAULT_DATA_FILE_SIZE_IN_MB
             info["video_files_size_in_mb"] = DEFAULT_VIDEO_FILE_SIZE_IN_MB
@@ -117,7 +119,6 @@ class EpisodeStore:
         resume: bool = False,
         use_videos: bool = True,
     ):
-        import datasets
 
         datasets.disable_progress_bars()  # one "Map" bar per episode says nothing to a person recording
         self.root = Path(root).absolute()
@@ -139,7 +140,6 @@ class EpisodeStore:
             raise
 
     def _open(self, repo_id, fps, features, robot_type, resume, use_videos) -> None:
-        from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
         if not resume and (self.root.exists() or self.root.is_symlink()):  # appeared while we waited
             raise GloverecError(f"{self.root} already exists: pass --resume to add episodes, or choose another --root")
@@ -230,10 +230,7 @@ class EpisodeStore:
         ds._close_writer()  # footers: the episode's parquet files are complete and never reopened
         ds.meta._close_writer()
         ds._writer_closed_for_reading = True
-        side = self.work / SIDECAR
-        side.parent.mkdir(parents=True, exist_ok=True)
-        with side.open("a") as f:
-            f.write(json.dumps({"episode_index": index, **sidecar}) + "\n")
+        append_sidecar(self.work, index, sidecar)
         self.publish()
         return index
 
@@ -267,11 +264,3 @@ class EpisodeStore:
         if self._lock is not None:
             os.close(self._lock)  # a writer process forked from here holds it until it exits too
             self._lock = None
-
-
-def read_sidecar(root: str | Path) -> list[dict]:
-    """Our per-episode metadata of a dataset (empty when it has none)."""
-    path = Path(root) / SIDECAR
-    if not path.exists():
-        return []
-    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]

@@ -16,7 +16,8 @@ import dataclasses
 
 import numpy as np
 
-from recorder.emulator.motion import GESTURES
+from envs.robots.config import TipsConfig
+from recorder.hand.gestures import GESTURES
 from recorder.hand.kinematics import JOINTS, LIMITS, interpolate_dip
 from recorder.retarget.retargeter import Retargeter
 
@@ -41,7 +42,7 @@ def mean_tip_error(r: Retargeter, poses: np.ndarray) -> float:
 def fit(robot: str, samples: int = 400, actuators=None, seed: int = 0) -> dict:
     joint = Retargeter(robot, "joint", base_rotation=False)
     poses = sample_poses(samples, seed)
-    c = joint.config
+    c = joint.map
     # 1. tips: scale and offset that best match the joint-mapped fingers (thumb excluded: its base differs most)
     raw = np.array([joint.human.tips(a) for a in poses])[:, 1:]
     rob = np.array([joint.robot_tips(joint.qpos(joint.joint_map(a))) for a in poses])[:, 1:]
@@ -50,14 +51,10 @@ def fit(robot: str, samples: int = 400, actuators=None, seed: int = 0) -> dict:
     for k in range(3):
         X[k::3, 1 + k] = 1.0
     s, *o = np.linalg.lstsq(X, rob.reshape(-1), rcond=None)[0]
+    tips = TipsConfig(float(s), tuple(float(v) for v in o))
     ik = Retargeter(robot, "ik", base_rotation=False)
-    ik.config = dataclasses.replace(
-        ik.config,
-        tip_scale=float(s),
-        tip_offset=np.array(o),
-        ik=dataclasses.replace(c.ik, iterations=30, posture_cost=0.01),
-    )
-    ik.ik.config = ik.config.ik
+    ik.tips = tips
+    ik.ik.config = dataclasses.replace(ik.ik.config, iterations=30, posture_cost=0.01)
     ik.ik.posture.set_cost(np.where(ik.ik.posture.cost > 1, ik.ik.posture.cost, 0.01))
     # 2. IK targets per pose
     targets = []
@@ -86,9 +83,10 @@ def fit(robot: str, samples: int = 400, actuators=None, seed: int = 0) -> dict:
             A[i, JOINTS.index(j)] = v
         b[i] = off
     before = Retargeter(robot, "joint", base_rotation=False)
-    before.config = dataclasses.replace(c, tip_scale=float(s), tip_offset=np.array(o))
+    before.tips = tips
     after = Retargeter(robot, "joint", base_rotation=False)
-    after.config = dataclasses.replace(before.config, A=A, b=b)
+    after.tips = tips
+    after.map = dataclasses.replace(c, A=A, b=b)
     return {
         "tips": {"scale": round(float(s), 3), "offset": [round(float(v), 4) for v in o]},
         "joints": fitted,

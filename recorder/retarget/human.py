@@ -9,6 +9,7 @@ from functools import lru_cache
 import mujoco
 import numpy as np
 
+from envs.robots.glovehand import build
 from recorder.hand.kinematics import JOINTS, HandSize
 from recorder.hand.skeleton import FINGERS
 
@@ -29,6 +30,4 @@ class HumanHandFK:
 
 @lru_cache(maxsize=8)
 def _model(size: HandSize) -> mujoco.MjModel:
-    from envs.robots.glovehand import build
-
     return mujoco.MjModel.from_xml_string(build(size))

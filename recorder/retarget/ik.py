@@ -12,7 +12,7 @@ import mink
 import mujoco
 import numpy as np
 
-from recorder.retarget.config import IKConfig
+from envs.robots.config import IKConfig
 
 
 class FingertipIK:

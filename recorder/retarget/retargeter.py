@@ -13,10 +13,12 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from envs.robots import Robot, load_robot
 from recorder import quat
+from recorder.config import ConfigError
 from recorder.hand.kinematics import N_JOINTS, HandSize
-from recorder.retarget.config import load_retarget_config
 from recorder.retarget.human import HumanHandFK
+from recorder.retarget.ik import FingertipIK
 
 MODES = ("joint", "ik")
 PALM_REFERENCES = ("first", "absolute")
@@ -36,21 +38,21 @@ class Retargeter:
         palm_reference: str = "first",
         hand_size: HandSize = HandSize(),
     ):
-        from envs.robots import Robot, load_robot
-
         if mode not in MODES:
-            raise ValueError(f"unknown retarget mode {mode!r}; valid modes: {', '.join(MODES)}")
+            raise ConfigError(f"unknown retarget mode {mode!r}; valid modes: {', '.join(MODES)}")
         if palm_reference not in PALM_REFERENCES:
-            raise ValueError(f"unknown palm reference {palm_reference!r}; valid: {', '.join(PALM_REFERENCES)}")
+            raise ConfigError(f"unknown palm reference {palm_reference!r}; valid: {', '.join(PALM_REFERENCES)}")
         self.robot = robot if isinstance(robot, Robot) else load_robot(robot)
         self.mode = mode
         self.base_rotation = base_rotation
         self.palm_reference = palm_reference
         self.hand_size = hand_size
         self.human = HumanHandFK(hand_size)
-        cfg = self.config = load_retarget_config(self.robot.config.retarget, self.robot.model, self.robot.config.source)
+        self.map = self.robot.joint_map
+        section = self.robot.config.retarget
+        self.tips = section.tips
         spec = self.robot.spec()
-        for c in cfg.couplings:  # couplings as joint equalities: exact in FK, hard constraints in IK
+        for c in self.map.couplings:  # couplings as joint equalities: exact in FK, hard constraints in IK
             spec.add_equality(
                 type=mujoco.mjtEq.mjEQ_JOINT, name1=c.joint, name2=c.leader, data=[0.0, c.ratio] + [0.0] * 10
             )
@@ -58,25 +60,17 @@ class Retargeter:
         self.data = mujoco.MjData(m)
         self.nu = m.nu
         self.action_dim = m.nu + (3 if base_rotation else 0)
-        trn = m.actuator_trntype == mujoco.mjtTrn.mjTRN_JOINT
-        if not trn.all():
-            raise ValueError(f"{self.robot.name}: retargeting needs joint-transmission actuators only")
         self._act_qpos = m.jnt_qposadr[m.actuator_trnid[:, 0]]
-        self._act_dof = m.jnt_dofadr[m.actuator_trnid[:, 0]]
-        self._follow = np.array([m.jnt_qposadr[m.joint(c.joint).id] for c in cfg.couplings], int)
-        self._lead = np.array([m.jnt_qposadr[m.joint(c.leader).id] for c in cfg.couplings], int)
-        self._ratio = np.array([c.ratio for c in cfg.couplings])
+        act_dof = m.jnt_dofadr[m.actuator_trnid[:, 0]]
         self._tip_ids = self.robot.tip_site_ids
         self._palm_ref = None
         self.ik = None
         if mode == "ik":
-            from recorder.retarget.ik import FingertipIK
-
-            cost = np.full(m.nv, cfg.ik.posture_cost)
-            cost[self._act_dof[cfg.constant]] = 100.0  # constant targets (e.g. a wrist): hold them
-            if cfg.couplings:  # coupled joints are set by their constraint, not pulled by the posture
-                cost[m.jnt_dofadr[[m.joint(c.joint).id for c in cfg.couplings]]] = 0.0
-            self.ik = FingertipIK(m, list(self.robot.config.fingertips.values()), cfg.ik, cost)
+            cost = np.full(m.nv, section.ik.posture_cost)
+            cost[act_dof[self.map.constant]] = 100.0  # constant targets (e.g. a wrist): hold them
+            if self.map.couplings:  # coupled joints are set by their constraint, not pulled by the posture
+                cost[m.jnt_dofadr[[m.joint(c.joint).id for c in self.map.couplings]]] = 0.0
+            self.ik = FingertipIK(m, list(self.robot.config.fingertips.values()), section.ik, cost)
 
     def reset(self) -> None:
         """Start a new episode: the next palm orientation becomes the reference; IK restarts."""
@@ -86,21 +80,16 @@ class Retargeter:
 
     # ------------------------------------------------------------ pieces
     def joint_map(self, angles) -> np.ndarray:
-        """Actuator targets (nu,) from human joint angles (20,) by the configured linear map, clipped."""
-        c = self.config
-        return np.clip(c.A @ np.asarray(angles, float) + c.b, c.lo, c.hi)
+        """Actuator targets (nu,) from human joint angles (20,) by the robot's joint map, clipped."""
+        return self.map(angles)
 
     def qpos(self, ctrl) -> np.ndarray:
         """Robot joint positions (nq,) with the actuated joints at ``ctrl`` and coupled joints following."""
-        q = self.model.qpos0.copy()
-        q[self._act_qpos] = ctrl
-        if len(self._follow):
-            q[self._follow] = self._ratio * q[self._lead]
-        return q
+        return self.map.qpos(ctrl)
 
     def human_tips(self, angles) -> np.ndarray:
         """Scaled human fingertips (5, 3), palm frame, m: the robot's fingertip targets."""
-        return self.config.tip_scale * self.human.tips(angles) + self.config.tip_offset
+        return self.tips.scale * self.human.tips(angles) + np.asarray(self.tips.offset)
 
     def robot_tips(self, q) -> np.ndarray:
         """Robot fingertips (5, 3), palm frame, m, at joint positions q (nq,)."""
@@ -126,7 +115,7 @@ class Retargeter:
         iterations = 0
         if self.ik is not None:
             q, iterations = self.ik.solve(targets, self.qpos(ctrl))
-            ctrl = np.clip(q[self._act_qpos], self.config.lo, self.config.hi)
+            ctrl = np.clip(q[self._act_qpos], self.map.lo, self.map.hi)
         err = np.linalg.norm(self.robot_tips(self.qpos(ctrl)) - targets, axis=1)
         action = ctrl
         if self.base_rotation:

@@ -1,5 +1,6 @@
-"""The calibration procedure (recorder/hand/calibration.py) as emulated motion, for the benchmark and tests:
-``ProcedureMotion`` plays the user's steps, then blends into a recorder.emulator Motion ("gestures", "random").
+"""The calibration procedure (recorder/hand/calibration.py STEPS) as the emulated wearer performs it, for
+`gloverec calibrate --glove emulator`, the benchmark and tests: ``ProcedureMotion`` plays the user's steps, then
+blends into a recorder.hand.motion Motion ("gestures", "random").
 
 Timeline (seconds): 0-3 still, flat (step 1); 3-6 two flexions of every finger and the thumb to 60 degrees
 (step 2); 6-14 tilts of the hand: forward, back, left, right by 45 degrees, each held 0.8 s (step 3); 14-16 flat
@@ -13,12 +14,13 @@ import numpy as np
 
 from recorder import quat
 from recorder.emulator.glove import SyntheticGlove
-from recorder.emulator.motion import Motion, MotionBlock, _min_jerk
+from recorder.hand.calibration import STEPS
 from recorder.hand.kinematics import JOINTS, N_JOINTS, interpolate_dip
+from recorder.hand.motion import Motion, MotionBlock, SampledMotion, min_jerk
 
-HOLD, FLEX, MOVE, TILT_HOLD, REST, BLEND = 3.0, 3.0, 0.8, 0.8, 2.0, 1.0
+HOLD, FLEX, TILT, REST, BLEND = STEPS["still"], STEPS["flex"], STEPS["tilt"], STEPS["rest"], 1.0
 TILTS_DEG = ((0, 0, 0), (0, 45, 0), (0, -45, 0), (45, 0, 0), (-45, 0, 0), (0, 0, 0))  # palm rotation vectors
-TILT = (len(TILTS_DEG) - 1) * (MOVE + TILT_HOLD)
+MOVE = TILT_HOLD = TILT / (2 * (len(TILTS_DEG) - 1))  # each tilt: a move, then a hold
 PHASES = {
     "still": (0.0, HOLD),
     "flex": (HOLD, HOLD + FLEX),
@@ -33,12 +35,11 @@ FLEXED = tuple(
 )
 
 
-class ProcedureMotion:
+class ProcedureMotion(SampledMotion):
     def __init__(self, kind: str = "gestures", seed: int = 0, rate_hz: float = 200.0, flex_deg: float = 60.0):
+        super().__init__(rate_hz)
         self.motion = Motion(kind, seed=seed, rate_hz=rate_hz)
-        self.rate_hz = float(rate_hz)
         self.flex = np.radians(flex_deg)
-        self._i = 0
 
     def at(self, t) -> MotionBlock:
         t = np.asarray(t, float)
@@ -54,11 +55,11 @@ class ProcedureMotion:
         keys = np.radians(np.array(TILTS_DEG, float))
         tilting = (tt >= 0.0) & (tt < TILT)
         palm = quat.from_rotvec(
-            np.where(tilting[:, None], keys[k] + (keys[k + 1] - keys[k]) * _min_jerk(u)[:, None], 0.0)
+            np.where(tilting[:, None], keys[k] + (keys[k + 1] - keys[k]) * min_jerk(u)[:, None], 0.0)
         )
         pos = np.zeros((n, 3))
         m0 = self.motion.at(np.array([0.0]))
-        b = _min_jerk(np.clip((t - (START - BLEND)) / BLEND, 0.0, 1.0))[:, None]
+        b = min_jerk(np.clip((t - (START - BLEND)) / BLEND, 0.0, 1.0))[:, None]
         blend = (t >= START - BLEND) & (t < START)
         angles = np.where(blend[:, None], (1 - b) * angles + b * m0.angles, angles)
         palm = np.where(blend[:, None], quat.slerp(palm, m0.palm_quat, b[:, 0]), palm)
@@ -68,11 +69,6 @@ class ProcedureMotion:
             m = self.motion.at(t[after] - START)
             angles[after], palm[after], pos[after] = m.angles, m.palm_quat, m.palm_pos
         return MotionBlock(t, angles, palm, pos)
-
-    def next_block(self, n: int) -> MotionBlock:
-        t = (self._i + np.arange(n)) / self.rate_hz
-        self._i += n
-        return self.at(t)
 
 
 def procedure_glove(kind: str = "gestures", rate_hz: float = 200.0, seed: int = 0, **imu_options) -> SyntheticGlove:

@@ -1,29 +1,35 @@
 """`gloverec calibrate`: walk the user through the calibration procedure (docs/fusion.md, "Calibration") on a
 glove in raw mode and save its GloveCalibration (recorder/hand/calibration.py) under its glove id.
 
-Steps, each recorded for a fixed time (the durations of recorder/fusion/emulated.py's timeline, so the emulated
-wearer and the command line up): 1. rest flat and still, 3 s (gyro bias, gravity axes; refused and repeated
-when the hand moved), 2. flex every finger and the thumb twice, 3 s (flexion axes), 3. tilt forward, back,
-left and right, 8 s (accelerometer offsets), 4. rest flat again, 2 s (checks: still, back in the same pose).
+Steps, each recorded for a fixed time (recorder/hand/calibration.py STEPS, the emulated wearer's timeline too):
+1. rest flat and still, 3 s (gyro bias, gravity axes; refused and repeated when the hand moved), 2. flex every
+finger and the thumb twice, 3 s (flexion axes), 3. tilt forward, back, left and right, 8 s (accelerometer
+offsets), 4. rest flat again, 2 s (checks: still, back in the same pose).
 Interactive (stdin a terminal, a real glove): each step starts at Enter or the glove's button. Otherwise (a
 script, CI, ``--yes``, the emulator) the steps follow each other by the glove's clock.
 """
 
 from __future__ import annotations
 
+import os
+import select
 import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn
 
 from recorder import GloverecError
-from recorder.fusion import emulated
 from recorder.fusion.host import HostFusion, _arrays
-from recorder.fusion.session import calibration_folder, load_config
+from recorder.fusion.session import load_config
+from recorder.glove.config import GloveConfig
+from recorder.glove.glove import open_glove
 from recorder.hand import calibration as cal
 from recorder.hand.skeleton import JOINT_MAP, N_IMUS, SEGMENTS
+from recorder.paths import calibration_dir
 from recorder.protocol.frames import (
     CommandCode,
     EventCode,
@@ -39,7 +45,7 @@ FIRST_FRAME_S = 5.0  # no frame at all within this: not a glove
 RAW_WAIT_S = 3.0  # after the set-mode command: only pose frames for this long means the glove refused
 STATUS_WAIT_S = 2.5  # raw frames but no status frame (the glove id) for this long: ask for --glove-id
 STALL_S = 2.0  # a glove that stops sending mid-step
-MARGIN_S = 0.2  # left out at both ends of a step (the hand settling), as emulated.phase
+MARGIN_S = 0.2  # left out at both ends of a step (the hand settling), as recorder.emulator.procedure.phase
 
 
 @dataclass(frozen=True)
@@ -49,30 +55,25 @@ class Step:
     text: str
 
 
-def _seconds(name: str) -> float:
-    a, b = emulated.PHASES[name]
-    return b - a
-
-
 STEPS = (
     Step(
         "still",
-        _seconds("still"),
+        cal.STEPS["still"],
         "Rest the hand flat on the table, palm down, fingers straight and together, "
         "thumb beside the index. Do not move.",
     ),
     Step(
         "flex",
-        _seconds("flex"),
+        cal.STEPS["flex"],
         "Flex all fingers and the thumb twice, slowly and as far as comfortable "
         "(knuckles and finger joints, no spreading), back to flat.",
     ),
     Step(
         "tilt",
-        _seconds("tilt"),
+        cal.STEPS["tilt"],
         "Tilt the hand forward, back, left and right by about 45 degrees, holding each tilt for a second.",
     ),
-    Step("rest", _seconds("rest"), "Rest the hand flat again, as in step 1 (the reference pose)."),
+    Step("rest", cal.STEPS["rest"], "Rest the hand flat again, as in step 1 (the reference pose)."),
 )
 
 
@@ -87,7 +88,7 @@ class Calibrator:
 
     def __init__(
         self,
-        glove: str,
+        glove: GloveConfig | str,
         *,
         glove_id: int | None = None,
         folder=None,
@@ -98,11 +99,14 @@ class Calibrator:
         seed: int = 0,
         out=sys.stderr,
     ):
-        self.spec = glove
+        self.glove_config = GloveConfig.parse(glove)
+        self.emulated = self.glove_config.kind == "emulator"
+        if self.emulated:  # the emulated wearer performs the steps; its glove starts in raw mode
+            self.glove_config = GloveConfig.parse(self.glove_config, mode="raw", motion="calibration", seed=seed)
+        self.spec = str(self.glove_config)
         self.glove_id = glove_id
-        self.folder = calibration_folder(folder)
+        self.folder = calibration_dir(folder)
         self.config = load_config(config)
-        self.emulated = glove == "emulator"
         self.interactive = (
             (not self.emulated and sys.stdin is not None and sys.stdin.isatty())
             if interactive is None
@@ -112,7 +116,7 @@ class Calibrator:
         self.realtime = realtime
         self.seed = seed
         self.out = out
-        self.emulator = None
+        self.glove = None
         self._pending: list = []  # frames read ahead and not used yet
 
     # ------------------------------------------------------------ the run
@@ -178,28 +182,15 @@ class Calibrator:
 
     # ------------------------------------------------------------ the glove
     def _open(self):
-        from recorder.link.sources import make_source
-
-        if not self.emulated:
-            return make_source(self.spec, realtime=not self.spec.startswith("mcap:")).open()
-        from recorder.emulator.emulator import Emulator
-
-        motion = emulated.ProcedureMotion("gestures", self.seed, 200.0)
-        self.emulator = Emulator(200.0, "raw", motion, seed=self.seed)
-        self.emulator.realtime = self.realtime  # before plug(): its first status frame states the clock
-        try:
-            port = self.emulator.plug()
-        except OSError as exc:
-            raise GloverecError(f"cannot create the emulator's port: {exc}") from None
-        source = make_source(port).open()
-        self.emulator.start(sum(s.seconds for s in STEPS) + 0.5, realtime=self.realtime)
-        return source
+        # a device runs in real time whatever we do; a log plays back as fast as it is read
+        fast = not self.realtime if self.emulated else True
+        self.glove = open_glove(self.glove_config, fast=fast, motion="calibration")
+        return self.glove.source
 
     def close(self) -> None:
-        if self.emulator is not None:
-            self.emulator.close()
-            self.emulator = None
-        self.source.close()
+        if self.glove is not None:
+            self.glove.close()
+            self.glove = None
 
     def _raw_mode(self) -> list:
         """Ask for raw frames and wait for them and for the glove id; returns the raw frames read meanwhile."""
@@ -286,8 +277,6 @@ class Calibrator:
 
     def _wait_for_go(self) -> None:
         """Enter on the terminal or the glove's button; then what came while waiting is thrown away."""
-        import os
-        import select
 
         self._say("press Enter (or the glove's button) to start")
         fd = sys.stdin.fileno()
@@ -324,9 +313,6 @@ class _Progress:
         self.out, self.label, self.seconds, self.done = out, label, seconds, 0.0
         self.bar = None
         if hasattr(out, "isatty") and out.isatty():
-            from rich.console import Console
-            from rich.progress import BarColumn, Progress, TextColumn
-
             self.bar = Progress(
                 TextColumn("{task.description}"),
                 BarColumn(),

@@ -1,0 +1,262 @@
+"""Glove: an open glove as every command uses it. ``make_glove(config)`` builds it (``open_glove`` opens it too):
+the link GloveConfig names (serial, UDP, an MCAP log played back) or the built-in emulator on a pseudo-terminal
+read through the real serial path; host fusion (recorder/fusion/session.py SessionFusion: every frame goes
+through it, so raw, pose, compact and legacy JSON gloves all yield HandPoses); the pose track on the loop's
+clock; and the glove's button presses.
+
+The loop's clock ("glove time") is the host's monotonic clock in real time (device times are mapped onto it),
+and the glove's own device clock faster than real time (the loop then advances as fast as frames arrive).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+from recorder import GloverecError
+from recorder.demonstrator.session import SessionMotion
+from recorder.emulator.emulator import Emulator
+from recorder.emulator.procedure import ProcedureMotion
+from recorder.fusion.session import SessionFusion
+from recorder.glove.config import GloveConfig
+from recorder.glove.track import PoseTrack
+from recorder.hand.kinematics import interpolate_dip
+from recorder.hand.pose import HandPose
+from recorder.link.base import GloveSource
+from recorder.link.serial_source import SerialSource
+from recorder.link.udp_source import UdpSource
+from recorder.log.playback import McapSource, log_calibration
+from recorder.protocol import EventCode, EventFrame
+
+TRANSITION_S = 0.8  # the emulated hand's move back to a demonstration's start pose
+LEAD_S = 0.5  # faster than real time, the emulator runs at most this far ahead of the loop's needs
+
+
+class _TakenMotion:
+    """The session motion as the emulator takes it, block by block, under a lock that ``demonstrate`` holds too:
+    a demonstration then starts after the last block taken, never inside a block being synthesised (which would
+    make the hand jump: harmless for poses, a saturated gyro for raw frames)."""
+
+    def __init__(self, motion: SessionMotion):
+        self.motion = motion
+        self.rate_hz = motion.rate_hz
+        self.lock = threading.Lock()
+        self.taken = 0  # samples the emulator took
+
+    @property
+    def taken_s(self) -> float:
+        """Session time of the first sample not taken yet."""
+        return self.taken / self.rate_hz
+
+    def next_block(self, n: int):
+        with self.lock:
+            self.taken += n
+            return self.motion.next_block(n)
+
+    def at(self, t):
+        return self.motion.at(t)
+
+
+def link_for(config: GloveConfig, *, realtime: bool = True, **options) -> GloveSource:
+    """The (unopened) link to a glove on a wire or in a log; ``realtime`` paces log playback at recorded speed."""
+    options.setdefault("protocol", config.protocol)
+    if config.kind == "udp":
+        host, port = config.udp_address()
+        return UdpSource(port, host, **options)
+    if config.kind == "mcap":
+        return McapSource(config.address, realtime=realtime, **options)
+    if config.kind == "serial":
+        return SerialSource(config.address, baudrate=config.baudrate, **options)
+    raise GloverecError(f"{config} has no link of its own: open it with open_glove")
+
+
+class Glove:
+    """See the module docstring. ``fast``: faster than real time (log playback unpaced, the emulator on its own
+    clock); ``motion``: the emulator's wearer when the config leaves it open; ``fusion``: a SessionFusion
+    (default: the glove's saved calibration, or for a log the calibration it was recorded with)."""
+
+    def __init__(
+        self,
+        config: GloveConfig,
+        *,
+        fast: bool = False,
+        motion: str = "gestures",
+        fusion: SessionFusion | None = None,
+        calibration_dir=None,
+        **link_options,
+    ):
+        self.config = config
+        self.fast = fast
+        self.fusion = fusion if fusion is not None else _fusion_for(config, calibration_dir)
+        self.emulator: Emulator | None = None
+        self.session: SessionMotion | None = None  # the scripted demonstrations the emulated wearer performs
+        self._motion: _TakenMotion | None = None
+        self.motion = config.motion or motion
+        if config.kind == "emulator":
+            port = self._plug_emulator(config)
+            self.source = SerialSource(port, protocol=config.protocol, **link_options)
+        else:
+            self.source = link_for(config, realtime=not fast, **link_options)
+        self.name = str(config)
+        self.track = PoseTrack()
+        self.buttons: list[float] = []  # glove times of button presses not yet taken
+        self.frames = 0  # frames that carried a hand pose
+
+    def _plug_emulator(self, config: GloveConfig) -> str:
+        if self.motion == "demonstrations":
+            self.session = SessionMotion(seed=config.seed, rate_hz=config.rate_hz)
+            self._motion = _TakenMotion(self.session)
+            motion = self._motion
+            # the emulated wearer rests in the session's first pose (where fusion starts), not the flat hand
+            rest = interpolate_dip(self.session.keyframe_angles([0.0]))[0]
+        elif self.motion == "calibration":
+            motion, rest = ProcedureMotion("gestures", config.seed, config.rate_hz), None
+        else:
+            motion, rest = self.motion, None
+        self.emulator = Emulator(config.rate_hz, config.mode, motion, seed=config.seed)
+        if self.motion != "calibration":  # calibrating reads the raw frames: nothing to fuse (or to load) yet
+            self.fusion.expect(self.emulator.glove_id, raw=config.mode == "raw", rest_angles=rest)
+        self.emulator.realtime = not self.fast  # before plug(): its first status frame states the clock
+        try:
+            return self.emulator.plug()
+        except OSError as exc:
+            raise GloverecError(f"cannot create the emulator's port: {exc}") from None
+
+    # ------------------------------------------------------------ lifecycle
+    def open(self) -> Glove:
+        self.source.open()
+        if self.emulator is not None:
+            if self.fast and self.session is not None:  # demonstrations are scheduled as the loop goes
+                self.emulator.lead_s = LEAD_S
+            self.emulator.start(realtime=not self.fast)
+        return self
+
+    def close(self) -> None:
+        if self.emulator is not None:
+            self.emulator.close()
+        self.source.close()
+
+    def __enter__(self) -> Glove:
+        return self.open()
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # ------------------------------------------------------------ the demonstrator (emulator only)
+    def demonstrate(self, demo, lead_s: float = 0.0) -> None:
+        """Have the emulated hand perform ``demo`` next; its glove presses the button as the demo starts."""
+        if self.session is None:
+            raise GloverecError("only the emulated glove with motion=demonstrations performs demonstrations")
+        hold = self.fusion.hold_until_s  # host fusion starts on a resting hand
+        with self._motion.lock:
+            start = max(self._motion.taken_s, hold) + TRANSITION_S + lead_s
+            self.session.append(demo, start, TRANSITION_S)
+        self.emulator.schedule_button(start)
+
+    # ------------------------------------------------------------ frames in
+    def read(self, timeout: float | None = None):
+        """The next frame as it came (no fusion, no track): what a command that needs the frames themselves
+        takes (calibration, monitoring)."""
+        return self.source.read(timeout)
+
+    def time_of(self, frame) -> float:
+        if frame.t_us < 0:  # legacy JSON: no device clock
+            return frame.rx_ns * 1e-9
+        if self.fast:
+            return self.source.clock.unwrap(frame.t_us, frame.rx_ns)
+        return self.source.host_time_s(frame)
+
+    def poll(self, timeout: float = 0.0, until: float | None = None) -> int:
+        """Take frames that have arrived (waiting up to ``timeout`` for the first); returns how many.
+
+        Real time: everything queued. Fast: one frame at a time and only until the track reaches ``until``
+        (default: one more frame), so the track never skips past the frame times the loop still needs."""
+        n = 0
+        if not self.fast:
+            first = self.source.read(timeout) if timeout > 0 else None
+            for f in ([first] if first is not None else []) + self.source.drain():
+                self._take(f)
+                n += 1
+            return n
+        while True:
+            f = self.source.read(timeout if n == 0 else 0.0)
+            if f is None:
+                return n
+            self._take(f)
+            n += 1
+            newest = self.track.newest_s
+            if until is None or (newest is not None and newest >= until):
+                return n
+
+    def latest(self, wait_s: float = 0.0) -> HandPose | None:
+        """The newest hand pose after taking what has arrived (waiting up to ``wait_s`` for a first one)."""
+        end = time.monotonic() + wait_s
+        self.poll()
+        while self.track.newest is None and time.monotonic() < end and not self.finished:
+            self.poll(timeout=0.05)
+        return self.track.newest
+
+    def reset_pose(self) -> None:
+        """Re-take host fusion's reference pose (the reset key); the glove's button does it through the frames."""
+        self.fusion.request_reset()
+
+    def _take(self, f) -> None:
+        pose = self.fusion.process(f)  # every frame: ids, the button, raw frames fused
+        if pose is not None:
+            self.frames += 1
+            self.track.push(self.time_of(f), pose)
+        elif isinstance(f, EventFrame) and f.code == EventCode.BUTTON:
+            self.buttons.append(self.time_of(f))
+
+    def take_button(self) -> float | None:
+        return self.buttons.pop(0) if self.buttons else None
+
+    def now(self) -> float:
+        """The loop's clock: host monotonic time, or (fast) the newest glove sample's time."""
+        if not self.fast:
+            return time.monotonic()
+        return self.track.newest_s if self.track.newest_s is not None else float("-inf")
+
+    def wait_past(self, t: float, timeout_s: float = 5.0) -> bool:
+        """Fast mode: take frames until the track has a sample at or after ``t``; False if none comes."""
+        end = time.monotonic() + timeout_s
+        if self.emulator is not None:  # host fusion shows its first pose after the hand's rest
+            hold = self.fusion.hold_until_s if not self.fusion.started else 0.0
+            self.emulator.allow(max(self._session_time(t), hold) + LEAD_S)
+        while self.track.newest_s is None or self.track.newest_s < t:
+            if self.poll(timeout=0.05, until=t) == 0 and (self.source.finished or time.monotonic() > end):
+                return False
+        return True
+
+    def _session_time(self, t: float) -> float:
+        """The emulator's session time of glove time ``t`` (fast: its device clock, unwrapped from t0)."""
+        t0 = self.emulator.t0_us
+        return t - t0 * 1e-6 if t0 is not None else 0.0
+
+    @property
+    def connected(self) -> bool:
+        return self.source.connected
+
+    @property
+    def finished(self) -> bool:
+        return self.source.finished
+
+
+def _fusion_for(config: GloveConfig, calibration_dir=None) -> SessionFusion:
+    """Host fusion for the glove: its saved calibration ($GLOVEREC_CALIBRATION_DIR or datasets/calibration), or
+    for a log (`rerecord`) the calibration it was recorded with."""
+    if config.kind == "mcap":
+        record = log_calibration(config.address)
+        if record is not None:
+            return SessionFusion.from_record(record, str(config))
+    return SessionFusion(calibration_dir)
+
+
+def make_glove(config: GloveConfig | str, **options) -> Glove:
+    """The glove ``config`` names, not open yet (the emulator's port exists already); options as Glove's."""
+    return Glove(GloveConfig.parse(config), **options)
+
+
+def open_glove(config: GloveConfig | str, **options) -> Glove:
+    """The glove ``config`` names, open: its link connected, the emulator streaming."""
+    return make_glove(config, **options).open()

@@ -1,0 +1,53 @@
+"""Where gloverec's files are. Data (the local hub, recordings, calibrations) lives under the current directory,
+``datasets/``, or where the environment says; never inside the installed package. Configs and robot models ship
+with the package and are found with importlib.resources, in a checkout and in an installed wheel alike."""
+
+from __future__ import annotations
+
+import os
+from importlib import resources
+from pathlib import Path
+
+HUB_ENV = "GLOVEREC_HUB"
+CALIBRATION_ENV = "GLOVEREC_CALIBRATION_DIR"
+DATASETS = Path("datasets")
+
+
+def hub_dir(arg: str | os.PathLike | None = None) -> Path:
+    """The local hub: ``arg`` if given, else $GLOVEREC_HUB, else datasets/hub under the current directory."""
+    return Path(arg or os.environ.get(HUB_ENV) or DATASETS / "hub")
+
+
+def recordings_dir() -> Path:
+    """Where recordings go by default: datasets/recordings under the current directory."""
+    return DATASETS / "recordings"
+
+
+def calibration_dir(arg: str | os.PathLike | None = None) -> Path:
+    """Saved glove calibrations: ``arg``, else $GLOVEREC_CALIBRATION_DIR, else datasets/calibration."""
+    return Path(arg or os.environ.get(CALIBRATION_ENV) or DATASETS / "calibration")
+
+
+def configs_dir() -> Path:
+    """The shipped configs (robot, task, record, train, fusion). A wheel carries the repository's configs/ as
+    recorder/configs; a checkout (an editable install) has them beside the package."""
+    packaged = resources.files("recorder") / "configs"
+    if packaged.is_dir():
+        return Path(str(packaged))
+    return Path(__file__).resolve().parent.parent / "configs"
+
+
+def config_file(kind: str, name: str) -> Path:
+    """configs/<kind>/<name>.yaml (the file may not exist)."""
+    return configs_dir() / kind / f"{name}.yaml"
+
+
+def assets_dir() -> Path:
+    """The robots' MJCF models (envs/assets, package data of envs)."""
+    return Path(str(resources.files("envs") / "assets"))
+
+
+def checkout_dir() -> Path | None:
+    """The repository checkout this code runs from (firmware sources, build folder), None when installed."""
+    root = Path(__file__).resolve().parent.parent
+    return root if (root / "firmware" / "CMakeLists.txt").is_file() else None

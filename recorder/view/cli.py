@@ -1,0 +1,27 @@
+"""`gloverec view`: its flags; the view itself is recorder/view/live.py (loaded only when the command runs)."""
+
+from __future__ import annotations
+
+from recorder.argtypes import positive_float
+from recorder.glove.config import SPECS
+
+
+def add_parser(subparsers):
+    v = subparsers.add_parser("view", help="a MuJoCo robot hand follows the glove live")
+    v.add_argument("--glove", required=True, help=SPECS)
+    v.add_argument("--robot", default="glovehand", help="a robot of configs/robots/ (default: glovehand)")
+    v.add_argument("--task", default="pose", help="pose or grasp (default: pose)")
+    v.add_argument("--mode", default="joint", choices=("joint", "ik"), help="retargeting mode")
+    v.add_argument("--video", metavar="FILE.mp4", help="render to this video instead of a window")
+    v.add_argument(
+        "--duration", type=positive_float, help="seconds (default: until Ctrl-C; 10 s for a video from the emulator)"
+    )
+    v.add_argument("--camera", default="front", help="camera for the video (front, top, side)")
+    v.set_defaults(func=run)
+    return v
+
+
+def run(args) -> int:
+    from recorder.view import live  # mujoco, the glove and retargeting: only when the command runs
+
+    return live.run(args)

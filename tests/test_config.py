@@ -1,0 +1,141 @@
+"""The one config mechanism (recorder/config.py): dataclass defaults, then a YAML file, then flags generated from
+the fields; today's flags work as before; every problem is one line naming the file (or flag) and the key."""
+
+import argparse
+
+import pytest
+from hypothesis import given, strategies as st
+
+from conftest import gloverec
+from policies.config import TrainConfig
+from recorder import config
+from recorder.config import ConfigError
+from recorder.glove.config import GloveConfig
+from recorder.paths import calibration_dir, config_file, hub_dir
+from recorder.record.config import RecordConfig
+
+
+def _record(*argv, path=None):
+    p = argparse.ArgumentParser()
+    config.add_arguments(p, RecordConfig)
+    return RecordConfig.load(path, **config.overrides(p.parse_args(argv), RecordConfig))
+
+
+def test_defaults_live_in_the_dataclass():
+    cfg = _record()
+    assert cfg == RecordConfig() and cfg.glove == GloveConfig() and cfg.is_fast
+    assert cfg.root_path.as_posix() == "datasets/recordings/local/glove_demos"
+
+
+def test_todays_flags_work_as_before():
+    cfg = _record(
+        "--glove",
+        "serial:/dev/ttyACM0",
+        "--realtime",
+        "--cameras",
+        "front,top",
+        "--no-log",
+        "--glove-rate",
+        "500",
+        "--glove-mode",
+        "raw",
+        "--resume",
+        "--episode-time-s",
+        "4.5",
+    )
+    assert cfg.glove == GloveConfig("serial", "/dev/ttyACM0", rate_hz=500.0, mode="raw")
+    assert cfg.realtime is True and not cfg.is_fast and cfg.cameras == ("front", "top")
+    assert cfg.log is False and cfg.resume is True and cfg.episode_time_s == 4.5
+    assert _record("--fast", "--glove", "/dev/ttyUSB0").is_fast  # a bare device path is a serial glove
+    assert _record("--glove", "udp:9000").glove.udp_address() == ("0.0.0.0", 9000)
+    with pytest.raises(SystemExit):
+        _record("--realtime", "--fast")  # exclusive
+    t = argparse.ArgumentParser()
+    config.add_arguments(t, TrainConfig)
+    train = TrainConfig.load(None, **config.overrides(t.parse_args(["--all-episodes", "--steps", "7"]), TrainConfig))
+    assert train.successful_only is False and train.steps == 7 and train.save_every == 1000
+
+
+def test_yaml_overrides_defaults_and_flags_override_yaml(tmp_path):
+    path = tmp_path / "rec.yaml"
+    path.write_text("robot: shadow\nglove: {kind: serial, address: /dev/ttyACM0, baudrate: 9600}\nfps: 50\n")
+    cfg = _record("--fps", "20", "--glove-rate", "100", path=path)
+    assert cfg.robot == "shadow" and cfg.fps == 20
+    assert cfg.glove == GloveConfig("serial", "/dev/ttyACM0", baudrate=9600, rate_hz=100.0)
+    cfg = _record("--glove", "mcap:x.mcap", path=path)  # a spec replaces the kind and address, keeps the rest
+    assert cfg.glove == GloveConfig("mcap", "x.mcap", baudrate=9600)
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("fps: 0\n", "rec.yaml: fps: Input should be greater than 0"),
+        ("fps: fast\n", "rec.yaml: fps: Input should be a valid integer"),
+        ("frames_per_second: 30\n", "rec.yaml: frames_per_second: unknown key; valid: glove, robot, task, fps"),
+        ("glove: {kind: serial}\n", "rec.yaml: glove: a serial glove needs an address"),
+        ("glove: {kind: serial, address: x, speed: 3}\n", "rec.yaml: glove.speed: unknown key; valid: kind, address"),
+        ("glove: 'udp:host:99999'\n", "bad UDP glove"),
+        ("cameras: [front, ceiling]\n", "rec.yaml: cameras.1: Input should be 'front', 'top' or 'side'"),
+        ("repo_id: ../etc\n", "rec.yaml: repo_id: bad repo id '../etc'"),
+        ("[1, 2]\n", "rec.yaml: expected a mapping of settings, got list"),
+        ("fps: [\n", "rec.yaml: not valid YAML"),
+    ],
+)
+def test_bad_files_are_one_line_naming_the_file_and_key(tmp_path, text, message):
+    path = tmp_path / "rec.yaml"
+    path.write_text(text)
+    with pytest.raises(ConfigError) as exc:
+        RecordConfig.load(path)
+    assert message in str(exc.value) and "\n" not in str(exc.value), str(exc.value)
+
+
+def test_the_command_line_reports_config_errors_in_one_line(tmp_path):
+    path = tmp_path / "rec.yaml"
+    path.write_text("episodes: -1\n")
+    r = gloverec("record", "--config", str(path))
+    assert r.returncode == 1 and r.stderr.count("\n") == 1 and "episodes: Input should be greater than 0" in r.stderr
+    r = gloverec("record", "--config", str(tmp_path / "missing.yaml"))
+    assert r.returncode == 1 and "no such config file" in r.stderr
+    r = gloverec("record", "--fps", "0")  # flag values are checked by argparse: exit 2
+    assert r.returncode == 2 and "--fps: must be positive" in r.stderr and r.stderr.count("\n") == 1
+    r = gloverec("train", "--repo-id", "a/b", "--out", str(tmp_path / "o"), "--val-fraction", "1")
+    assert r.returncode == 2 and "--val-fraction: must be below 1" in r.stderr
+
+
+def test_shipped_example_configs_load():
+    assert RecordConfig.load(config_file("record", "shadow_grasp")).robot == "shadow"
+    assert RecordConfig.load(config_file("record", "serial_glove")).glove.kind == "serial"
+    assert TrainConfig.load(config_file("train", "quick")).policy == {"hidden_dim": 256}
+
+
+specs = st.one_of(
+    st.just("emulator"),
+    st.builds("serial:/dev/{}".format, st.from_regex(r"tty[A-Z]{3}[0-9]", fullmatch=True)),
+    st.builds("udp:{}".format, st.integers(1, 65535)),
+    st.builds("udp:127.0.0.{}:{}".format, st.integers(1, 254), st.integers(1, 65535)),
+    st.builds("mcap:{}.mcap".format, st.from_regex(r"[a-z][a-z0-9_/]{0,12}", fullmatch=True)),
+)
+
+
+@given(specs)
+def test_glove_specs_round_trip(spec):
+    glove = GloveConfig.parse(spec)
+    assert str(glove) == spec and GloveConfig.parse(str(glove)) == glove
+
+
+@given(st.text(max_size=12))
+def test_any_glove_text_parses_or_is_a_config_error(text):
+    try:
+        GloveConfig.parse(text)
+    except ConfigError as exc:
+        assert "\n" not in str(exc)
+
+
+def test_data_folders_follow_the_environment(monkeypatch, tmp_path):
+    monkeypatch.delenv("GLOVEREC_HUB", raising=False)
+    monkeypatch.delenv("GLOVEREC_CALIBRATION_DIR", raising=False)
+    assert hub_dir().as_posix() == "datasets/hub" and calibration_dir().as_posix() == "datasets/calibration"
+    monkeypatch.setenv("GLOVEREC_HUB", str(tmp_path / "hub"))
+    monkeypatch.setenv("GLOVEREC_CALIBRATION_DIR", str(tmp_path / "cal"))
+    assert hub_dir() == tmp_path / "hub" and calibration_dir() == tmp_path / "cal"
+    assert hub_dir("elsewhere").as_posix() == "elsewhere"

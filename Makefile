@@ -11,11 +11,13 @@ export MUJOCO_GL ?= egl
 
 install: $(STAMP)
 
-$(STAMP): pyproject.toml policies/plugin/pyproject.toml
+PLUGINS := policies/plugin recorder/plugin envs/plugin   # LeRobot plugins: policy gloverec_bc, teleop gloverec_glove, robot gloverec_sim
+
+$(STAMP): pyproject.toml $(addsuffix /pyproject.toml,$(PLUGINS))
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e '.[test]'
-	$(PY) -m pip install -q --no-deps -e policies/plugin   # the LeRobot plugin: lerobot-train --policy.type=gloverec_bc
+	$(PY) -m pip install -q --no-deps $(addprefix -e ,$(PLUGINS))
 	@touch $(STAMP)
 
 demo: $(STAMP)

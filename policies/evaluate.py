@@ -32,7 +32,9 @@ from tqdm import tqdm
 
 import envs
 import policies.bc  # noqa: F401  (registers gloverec_bc)
+from envs.robots import load_robot, robot_names
 from envs.tasks import CAMERAS
+from envs.tasks.base import action_names
 from policies.data import dataset_info, sidecar
 from recorder import GloverecError
 from recorder.demonstrator import make_demonstrator
@@ -196,9 +198,38 @@ def consumed_features(cfg) -> dict:
     return out
 
 
+def trained_setup(context: dict) -> tuple[str | None, str | None]:
+    """(task, robot) a checkpoint was trained on: what its context says, else, for a dataset recorded on the
+    LeRobot robot gloverec_sim (lerobot-record: no sidecar), read from its feature names: the task from the
+    task's state (goal.* for pose, object.* for grasp), the robot whose actuators are the action's names."""
+    task, robot = context.get("task"), context.get("robot")
+    names = context.get("names") or {}
+    if robot not in robot_names() and names.get("action"):
+        acts = list(names["action"])
+        robot = next((r for r in robot_names() if acts in _action_name_lists(r)), None)
+    if not task and names.get("observation.state"):
+        prefixes = {n.split(".")[0] for n in names["observation.state"]}
+        task = "pose" if "goal" in prefixes else "grasp" if "object" in prefixes else None
+    return task, robot
+
+
+def _action_name_lists(robot: str) -> list[list[str]]:
+    r = load_robot(robot)
+    return [list(action_names(r, base_rotation=b)) for b in (True, False)]
+
+
+def _state_includes_task(agent: PolicyAgent) -> bool:
+    """The policy was trained in LeRobot's layout: the task's state inside observation.state (gloverec_sim)."""
+    names = (agent.context.get("names") or {}).get("observation.state") or []
+    return "observation.environment_state" not in agent.inputs and any(
+        n.startswith(("goal.", "object.")) for n in names
+    )
+
+
 def env_options(agent: PolicyAgent, video: bool) -> dict:
-    """Environment options a policy needs: its control rate and its cameras at its image size."""
-    opts = {}
+    """Environment options a policy needs: its control rate, its cameras at its image size, and where it reads
+    the task's state."""
+    opts = {"state_includes_task": True} if _state_includes_task(agent) else {}
     if agent.context.get("fps"):
         opts["control_hz"] = float(agent.context["fps"])
     cams = [k.removeprefix("observation.images.") for k in agent.inputs if k.startswith("observation.images.")]
@@ -346,8 +377,8 @@ def evaluate_checkpoint(
 ) -> dict:
     """Load a checkpoint, build the environment it needs, check the features, evaluate."""
     agent = load_policy(path)
-    task = task or agent.context.get("task")
-    robot = robot or agent.context.get("robot")
+    guess_task, guess_robot = trained_setup(agent.context)
+    task, robot = task or guess_task, robot or guess_robot
     if not task or not robot:
         missing = " and ".join(f"--{n}" for n, v in (("task", task), ("robot", robot)) if not v)
         raise GloverecError(f"the checkpoint does not say which task and robot it was trained on: pass {missing}")

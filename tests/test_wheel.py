@@ -13,6 +13,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+PLUGINS = ("lerobot_policy_gloverec", "lerobot_teleoperator_gloverec", "lerobot_robot_gloverec")
+PLUGIN_DIRS = [str(ROOT / p / "plugin") for p in ("policies", "recorder", "envs")]
 
 
 @pytest.fixture(scope="module")
@@ -20,20 +22,11 @@ def installed(tmp_path_factory):
     base = tmp_path_factory.mktemp("wheel")
     wheels, target = base / "wheels", base / "site"
     pip = [sys.executable, "-m", "pip", "-q", "--disable-pip-version-check"]
-    build = [
-        *pip,
-        "wheel",
-        "--no-deps",
-        "--no-build-isolation",
-        "-w",
-        str(wheels),
-        str(ROOT),
-        str(ROOT / "policies/plugin"),
-    ]
+    build = [*pip, "wheel", "--no-deps", "--no-build-isolation", "-w", str(wheels), str(ROOT), *PLUGIN_DIRS]
     r = subprocess.run(build, capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     found = sorted(wheels.glob("*.whl"))
-    assert [w.name.split("-")[0] for w in found] == ["gloverec", "lerobot_policy_gloverec"]
+    assert [w.name.split("-")[0] for w in found] == ["gloverec", *sorted(PLUGINS)]
     r = subprocess.run(
         [*pip, "install", "--no-deps", "--target", str(target), *map(str, found)],
         capture_output=True,
@@ -65,15 +58,13 @@ def test_the_wheel_ships_configs_and_models_and_no_data(installed):
         "envs/assets/glovehand/glovehand.xml",
     ):
         assert shipped in names
-    assert not [n for n in names if n.startswith(("tests/", "datasets/", "policies/plugin/", "bench/"))]
+    assert not [n for n in names if n.startswith(("tests/", "datasets/", "bench/", "policies/plugin/"))]
+    assert not [n for n in names if n.startswith(("recorder/plugin/", "envs/plugin/"))]
 
 
 def test_the_installed_packages_come_from_the_target(installed):
-    code = (
-        "import sys, recorder, envs, policies, lerobot_policy_gloverec; "
-        "print(recorder.__file__, envs.__file__, policies.__file__, lerobot_policy_gloverec.__file__); "
-        f"print({str(ROOT)!r} in sys.path)"
-    )
+    modules = ", ".join(("recorder", "envs", "policies", *PLUGINS))
+    code = f"import sys, {modules}; print(*(m.__file__ for m in ({modules}))); print({str(ROOT)!r} in sys.path)"
     r = _run(installed, "-c", code)
     assert r.returncode == 0, r.stderr
     files, checkout_on_path = r.stdout.split("\n")[:2]

@@ -14,7 +14,8 @@ rotation as a rotation vector (rad, palm axes, relative to the task's nominal or
 Observation (dict):
 - ``observation.state``: hand joint positions, then velocities (``state_velocities``), then the palm
   frame's position (3, m) and orientation (4, wxyz) in the world: names in ``state_names``.
-- ``observation.environment_state``: the task's (goal or object), names in ``environment_state_names``.
+- ``observation.environment_state``: the task's (goal or object), names in ``environment_state_names``. With
+  ``state_includes_task`` (LeRobot's layout) it is appended to ``observation.state`` instead.
 - ``observation.images.<camera>``: uint8 (H, W, 3) for each of ``cameras`` (offscreen, MUJOCO_GL=egl).
 """
 
@@ -50,12 +51,20 @@ class TaskConfig:
     base_rotation: bool = True  # the action carries the palm rotation (3)
     max_base_angle_deg: Annotated[float, Positive] = 75.0
     state_velocities: bool = True
+    # LeRobot's layout: the task's state (goal or object) appended to observation.state and no
+    # observation.environment_state, as a LeRobot robot reports every float it has (lerobot_robot_gloverec)
+    state_includes_task: bool = False
     weld_timeconst: Annotated[float, Positive] = 0.01  # s; how stiffly the hand base follows its target
 
     @classmethod
     def load(cls, name: str, **overrides):
         """The defaults with ``overrides``; an unknown option or a bad value: one-line ConfigError."""
         return config.build(cls, overrides, f"{name} task")
+
+
+def action_names(robot, base_rotation: bool = True) -> tuple[str, ...]:
+    """The names of a task's action elements for ``robot``: its actuators, then the palm rotation."""
+    return tuple(robot.actuator_names) + (("base.rx", "base.ry", "base.rz") if base_rotation else ())
 
 
 def _look_at(pos, target):
@@ -108,20 +117,18 @@ class HandEnv(gym.Env):
         if cfg.base_rotation:
             lo, hi = np.concatenate((lo, [-amax] * 3)), np.concatenate((hi, [amax] * 3))
         self.action_space = gym.spaces.Box(lo.astype(np.float32), hi.astype(np.float32), dtype=np.float32)
-        self.action_names = tuple(self.robot.actuator_names) + (
-            ("base.rx", "base.ry", "base.rz") if cfg.base_rotation else ()
-        )
+        self.action_names = action_names(self.robot, cfg.base_rotation)
         self.state_names = (
             tuple(f"{n}.pos" for n in self.joint_names)
             + (tuple(f"{n}.vel" for n in self.joint_names) if cfg.state_velocities else ())
             + ("palm.x", "palm.y", "palm.z", "palm.qw", "palm.qx", "palm.qy", "palm.qz")
+            + (tuple(self.environment_state_names) if cfg.state_includes_task else ())
         )
-        spaces = {
-            "observation.state": gym.spaces.Box(-np.inf, np.inf, (len(self.state_names),), np.float32),
-            "observation.environment_state": gym.spaces.Box(
+        spaces = {"observation.state": gym.spaces.Box(-np.inf, np.inf, (len(self.state_names),), np.float32)}
+        if not cfg.state_includes_task:
+            spaces["observation.environment_state"] = gym.spaces.Box(
                 -np.inf, np.inf, (len(self.environment_state_names),), np.float32
-            ),
-        }
+            )
         for cam in cfg.cameras:
             spaces[f"observation.images.{cam}"] = gym.spaces.Box(0, 255, (h, w, 3), np.uint8)
         self.observation_space = gym.spaces.Dict(spaces)
@@ -267,10 +274,11 @@ class HandEnv(gym.Env):
         if self.config.state_velocities:
             parts.append(d.qvel[self._jv])
         parts.extend(self.palm_pose())
-        obs = {
-            "observation.state": np.concatenate(parts).astype(np.float32),
-            "observation.environment_state": self._environment_state().astype(np.float32),
-        }
+        task = self._environment_state().astype(np.float32)
+        if self.config.state_includes_task:
+            obs = {"observation.state": np.concatenate([*parts, task]).astype(np.float32)}
+        else:
+            obs = {"observation.state": np.concatenate(parts).astype(np.float32), "observation.environment_state": task}
         for cam in self.config.cameras:
             obs[f"observation.images.{cam}"] = self._render(cam)
         return obs

@@ -210,6 +210,12 @@ class HandGraspEnv(HandEnv):
         lifted = self.object_pose()[2] - self.object_start[2] >= 0.5 * self.config.lift_m
         return bool(lifted and self.hand_contacts(self._object[1]) >= 2)
 
+    def dropped(self) -> bool:
+        """The script's lift is over and the object is back near the table: it fell, or was never held."""
+        if self.t < self.schedule["hold"]:
+            return False
+        return bool(self.object_pose()[2] - self.object_start[2] < 0.25 * self.config.lift_m)
+
     def _evaluate(self):
         held = self.held()
         end = self.t >= self.config.episode_s - 1e-9

@@ -7,7 +7,12 @@ STAMP  := $(VENV)/.installed
 export HF_HUB_OFFLINE ?= 1
 export MUJOCO_GL ?= egl
 
-.PHONY: install demo test bench clean
+.PHONY: install demo test bench clean system
+
+# Debian packages the live-view tests use (a virtual display, a key sender, a headless browser); installed when
+# missing (CI runs as root with the package registries reachable).
+SYSTEM_TOOLS    := Xvfb xdotool chromium chromedriver
+SYSTEM_PACKAGES := xvfb xdotool chromium chromium-driver
 
 install: $(STAMP)
 
@@ -23,7 +28,15 @@ $(STAMP): pyproject.toml $(addsuffix /pyproject.toml,$(PLUGINS))
 demo: $(STAMP)
 	$(PY) -m recorder.demo
 
-test: $(STAMP)
+system:
+	@missing=$$(for t in $(SYSTEM_TOOLS); do command -v $$t >/dev/null || echo $$t; done); \
+	if [ -n "$$missing" ]; then \
+	  echo "installing $(SYSTEM_PACKAGES) (missing: $$missing)"; \
+	  { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(SYSTEM_PACKAGES) >/dev/null; } \
+	  || { echo "make: cannot install the Debian packages $(SYSTEM_PACKAGES): install them, then run make test again" >&2; exit 1; }; \
+	fi
+
+test: $(STAMP) system
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 	$(VENV)/bin/lint-imports

@@ -68,6 +68,8 @@ def one(task: str, robot: str, args, tmp: Path, hub: Path) -> dict:
     t = time.perf_counter()
     rec = gloverec(
         "record",
+        "--view",
+        "none",
         "--glove",
         "emulator",
         "--task",

@@ -7,7 +7,8 @@ help and their defaults, so they cannot drift from the dataclass.
 A field's metadata (``setting(default, help, ...)``) says how it appears on the command line: ``flag`` (another
 name than --field-name; a bool field's flag sets it True, or False when the flag starts with --no-),
 ``sets`` (the value a bool's flag sets, when its name does not say), ``negation`` (a second flag that sets a
-bool False, exclusive with the first), ``cli=False`` (YAML only),
+bool False, exclusive with the first), ``check`` (a function that raises ValueError for a bad value: argparse
+reports it), ``cli=False`` (YAML only),
 ``flags`` (for a nested dataclass field: {nested field: flag}). Ranges and choices live in the type hints:
 ``Annotated[int, Gt(0)]``, ``Literal["joint", "ik"]``. A nested dataclass may define ``decode_text(text) -> dict``
 to be given as a string (``glove: serial:/dev/ttyACM0``).
@@ -234,6 +235,8 @@ def _add_flag(
         kw["metavar"] = f.metadata.get("metavar") or "A,B"
     elif base in (int, float):
         kw["type"] = number(base, *constraints)
+    if "check" in f.metadata:  # a flag-level check: argparse reports its error (exit 2)
+        kw["type"] = _checked(f.metadata["check"])
     if "metavar" in f.metadata:
         kw["metavar"] = f.metadata["metavar"]
     elif "choices" not in kw and "metavar" not in kw:
@@ -248,6 +251,17 @@ def _with_default(help_: str, default) -> str:
         return help_
     shown = ",".join(map(str, default)) if isinstance(default, tuple) else default
     return f"{help_} (default: {shown})" if help_ else f"default: {shown}"
+
+
+def _checked(check):
+    def parse(text: str):
+        try:
+            check(text)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+        return text
+
+    return parse
 
 
 def _listed(item_types):

@@ -67,6 +67,8 @@ def main() -> int:
     )
     rec = gloverec(
         "record",
+        "--view",
+        "none",
         "--task",
         "pose",
         "--robot",

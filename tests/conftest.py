@@ -10,8 +10,14 @@ os.environ.setdefault("HF_HUB_OFFLINE", "1")
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 
+VIEWLESS = ("record", "calibrate")  # recorded without a live view here (`--view none`): CI has no display
+
+
 def gloverec(*args: str, **kw) -> subprocess.CompletedProcess:
-    """Run the CLI as a user would, in a child process."""
+    """Run the CLI as a user would, in a child process (record and calibrate with `--view none` unless a test
+    chooses a view)."""
+    if args and args[0] in VIEWLESS and "--view" not in args:
+        args = (args[0], "--view", "none", *args[1:])
     return subprocess.run(
         [sys.executable, "-m", "recorder.cli", *args],
         capture_output=True,

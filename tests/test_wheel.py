@@ -74,7 +74,7 @@ def test_the_installed_packages_come_from_the_target(installed):
 
 def test_the_installed_command_records_and_publishes_under_the_working_directory(installed):
     gloverec = str(installed["target"] / "bin" / "gloverec")
-    r = _run(installed, gloverec, "record", "--episodes", "2", "--repo-id", "wheel/demo", "--json")
+    r = _run(installed, gloverec, "record", "--view", "none", "--episodes", "2", "--repo-id", "wheel/demo", "--json")
     assert r.returncode == 0, r.stderr
     summary = json.loads(r.stdout.strip().splitlines()[-1])
     assert summary["episodes_saved"] == 2 and summary["root"] == "datasets/recordings/wheel/demo"

@@ -100,6 +100,16 @@ class HandPoseEnv(HandEnv):
     def _environment_state(self) -> np.ndarray:
         return self.goal
 
+    def goal_qpos(self, qpos: np.ndarray, goal: np.ndarray | None = None) -> np.ndarray:
+        """``qpos`` with the hand's actuated joints at ``goal`` (default: this episode's) and the joints coupled to
+        them following: the robot holding the target gesture where it stands (a view draws it as a ghost)."""
+        q = np.array(qpos, float)
+        q[self._act_qpos] = self.goal if goal is None else goal
+        m = self.model
+        for c in self.robot.joint_map.couplings:
+            q[m.jnt_qposadr[m.joint(c.joint).id]] = c.ratio * q[m.jnt_qposadr[m.joint(c.leader).id]]
+        return q
+
     def joint_errors(self) -> np.ndarray:
         return np.abs(self.actuated_positions() - self.goal)
 

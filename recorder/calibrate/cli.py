@@ -7,6 +7,7 @@ import json
 
 from recorder.argtypes import positive_int
 from recorder.paths import CALIBRATION_ENV
+from recorder.view.process import view_arg
 
 
 def add_parser(sub) -> None:
@@ -35,6 +36,12 @@ def add_parser(sub) -> None:
     c.add_argument(
         "--realtime", action="store_true", help="pace the emulator in real time (default: as fast as it is read)"
     )
+    c.add_argument(
+        "--view",
+        type=view_arg,
+        help="a live view of each step on the human hand: native, web[:PORT], rerun[:MODE], "
+        "none (default: native with a display and a terminal, else none)",
+    )
     c.add_argument("--json", action="store_true", help="print a JSON summary instead of the table")
     c.set_defaults(func=cmd_calibrate)
 
@@ -60,6 +67,7 @@ def cmd_calibrate(args) -> int:
         interactive=False if args.yes else None,
         attempts=args.attempts,
         realtime=args.realtime,
+        view=args.view,
     ).run()
     print(json.dumps(summary(result)) if args.json else report(result))
     return 0

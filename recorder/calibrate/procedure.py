@@ -23,6 +23,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn
 
 from recorder import GloverecError
+from recorder.calibrate.view import StepView
 from recorder.fusion.host import HostFusion, _arrays
 from recorder.fusion.session import load_config
 from recorder.glove.config import GloveConfig
@@ -98,7 +99,10 @@ class Calibrator:
         realtime: bool = False,
         seed: int = 0,
         out=sys.stderr,
+        view: str | None = "none",
     ):
+        """``view``: a live view showing each step on the human hand (recorder/calibrate/view.py; None: the
+        default, native with a display and a terminal)."""
         self.glove_config = GloveConfig.parse(glove)
         self.emulated = self.glove_config.kind == "emulator"
         if self.emulated:  # the emulated wearer performs the steps; its glove starts in raw mode
@@ -117,12 +121,16 @@ class Calibrator:
         self.seed = seed
         self.out = out
         self.glove = None
+        self.view_spec = view
+        self.view = None
         self._pending: list = []  # frames read ahead and not used yet
 
     # ------------------------------------------------------------ the run
     def run(self) -> Result:
         self.source = self._open()
         try:
+            if self.view_spec != "none":
+                self.view = StepView(self.view_spec, self.spec, self._say)
             first = self._raw_mode()
             self._pending = first + self._pending
             recs, attempts = {}, 0
@@ -188,6 +196,9 @@ class Calibrator:
         return self.glove.source
 
     def close(self) -> None:
+        if self.view is not None:
+            self.view.close()
+            self.view = None
         if self.glove is not None:
             self.glove.close()
             self.glove = None
@@ -247,6 +258,7 @@ class Calibrator:
 
     # ------------------------------------------------------------ one step
     def _step(self, k: int, step: Step) -> list:
+        self._k, self._current = k, step
         self._say(f"step {k + 1}/{len(STEPS)}, {step.seconds:g} s: {step.text}")
         if self.interactive:
             self._wait_for_go()
@@ -271,6 +283,7 @@ class Calibrator:
                     break
                 frames.append(f)
                 progress.update(span)
+                self._show(k, step, span)
         finally:
             progress.close()
         return frames
@@ -281,6 +294,8 @@ class Calibrator:
         self._say("press Enter (or the glove's button) to start")
         fd = sys.stdin.fileno()
         while True:
+            if self._show(self._k, self._current, 0.0, waiting=True) == "next":
+                break
             ready, _, _ = select.select([fd], [], [], 0.05)
             if ready:
                 os.read(fd, 1024)
@@ -295,6 +310,16 @@ class Calibrator:
 
     def _say(self, text: str) -> None:
         print(text, file=self.out, flush=True)
+
+    def _show(self, k: int, step: Step, seconds: float, waiting: bool = False) -> str | None:
+        """Show the step in the live view, if any; its requests: "next" (returned), "stop" (ends the run)."""
+        if self.view is None:
+            return None
+        self.view.show(k, len(STEPS), step, seconds, waiting)
+        what = self.view.take()
+        if what == "stop":
+            raise GloverecError("calibration stopped from the view; nothing saved")
+        return what
 
 
 def _inside(frames: list, margin_s: float = MARGIN_S) -> list:

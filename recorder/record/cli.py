@@ -65,7 +65,12 @@ def run_rerecord(args: argparse.Namespace) -> int:
     as_logged = {"robot": session.get("robot"), "task": session.get("task"), "fps": int(session.get("fps", 30))}
     given = config.overrides(args, RecordConfig)
     cfg = RecordConfig.load(
-        **{**as_logged, **given}, glove=f"mcap:{args.log_file}", realtime=False, episodes=len(plan), log=False
+        **{**as_logged, **given},
+        glove=f"mcap:{args.log_file}",
+        realtime=False,
+        episodes=len(plan),
+        log=False,
+        view="none",
     )
     summary = Recorder(cfg, plan=plan).run()
     summary["source_log"] = args.log_file

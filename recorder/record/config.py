@@ -14,6 +14,7 @@ from recorder import config as cfg
 from recorder.config import STRICT, NonNegative, Positive, setting
 from recorder.glove.config import GloveConfig
 from recorder.paths import recordings_dir
+from recorder.view.process import ViewSpec
 
 REPO_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*/[A-Za-z0-9][A-Za-z0-9._-]*$")
 CAMERAS = ("front", "top", "side")
@@ -27,6 +28,11 @@ def repo_id(value: str) -> str:
 
 
 RepoId = Annotated[str, AfterValidator(repo_id)]
+
+
+def _view(text: str) -> str:
+    ViewSpec.parse(text)  # ConfigError (a ValueError) names what is valid
+    return text
 
 
 @dataclass
@@ -67,6 +73,13 @@ class RecordConfig:
     seed: int = setting(0, "episode k of a session resets the environment with seed + k")
     log: bool = setting(True, "no raw MCAP log of the session beside the dataset", flag="--no-log")
     task_text: str | None = setting(None, "the task string stored with every frame (default: the task's)")
+    view: Annotated[str, AfterValidator(_view)] | None = setting(
+        None,
+        "live view: native (MuJoCo's viewer), web[:PORT] (a page on 127.0.0.1), rerun[:spawn|serve|connect|save], "
+        "none (default: native with a display and a terminal, else none)",
+        metavar="VIEW",
+        check=ViewSpec.parse,
+    )
 
     @classmethod
     def load(cls, path: str | Path | None = None, **overrides) -> RecordConfig:

@@ -28,6 +28,7 @@ from recorder.log.writer import McapLogger
 from recorder.record.config import RecordConfig
 from recorder.record.control import NEXT, RERECORD, STOP, Control
 from recorder.record.features import DatasetSchema, Row
+from recorder.record.live import LiveView
 from recorder.record.store import EpisodeStore
 from recorder.record.writer import EpisodeWriter
 from recorder.retarget import Retargeter
@@ -135,6 +136,7 @@ class Recorder:
             self._open_log()
         self.control = control if control is not None else Control()
         self.control.on_reset(self.glove.reset_pose)  # the reset key re-takes host fusion's reference pose
+        self.live = LiveView(cfg.view, cfg, self.u, self.glove, self.control, self.store.work, self._say)
         self.period = 1.0 / cfg.fps
         self.delay_s = 0.0  # real time: set per episode from the glove's measured sample interval
         self._last_line = 0.0
@@ -203,12 +205,14 @@ class Recorder:
             "lost": lost,
             "success_rate": round(float(np.mean([s["success"] for s in saved])), 3) if saved else None,
             "log": self.log_rel,
+            **self.live.summary(),
         }
 
     def _report_saved(self, wait: bool = False) -> None:
         """Say which episodes the writer process has saved (published) since the last call."""
         for index, result in self.writer.results(wait):
             self.saved.append(result)
+            self.live.saved_episode(result["success"])
             self._say(
                 f"episode {index} saved: {result['frames']} frames, success={result['success']}, "
                 f"late {result['glove_late']}, dropped {result['glove_dropped']}, "
@@ -224,6 +228,7 @@ class Recorder:
             self.store.close()
         if self.logger is not None:
             self.logger.close()
+        self.live.close()
         self.control.close()
         self.env.close()
 
@@ -232,7 +237,8 @@ class Recorder:
         planned = self.plan.pop(0) if self.plan else None
         seed = self.cfg.seed + index if planned is None else planned[0]
         obs, info = self.env.reset(seed=seed)
-        self.task_text = self.cfg.task_text or task_text(self.cfg.task, info)
+        self.task_text = self.live.task_text = self.cfg.task_text or task_text(self.cfg.task, info)
+        self.live.seed = seed
         self.retarget.reset()
         if self.demonstrator is not None:
             self.glove.demonstrate(self.demonstrator.plan(self.u, seed=seed))
@@ -240,7 +246,7 @@ class Recorder:
             start = planned[1] if self.glove.wait_past(planned[1]) else None
             self.glove.buttons.clear()
         else:
-            start = self._wait_for_start()
+            start = self._wait_for_start(index)
         if start is None:
             return ("ended" if self.glove.finished else "stop"), None
         if self.logger is not None:
@@ -250,7 +256,7 @@ class Recorder:
         with _no_gc_pauses(enabled=not self.fast):
             return self._record(index, seed, obs, start, None if planned is None else planned[2])
 
-    def _wait_for_start(self) -> float | None:
+    def _wait_for_start(self, index: int) -> float | None:
         """The reset period: ends at the glove's button, → on the keyboard, or after reset_time_s."""
         g = self.glove
         if self.fast:
@@ -265,6 +271,7 @@ class Recorder:
         while True:
             g.poll(timeout=0.02)
             self._report_saved()
+            self.live.reset_period(index, None if limit == float("inf") else max(0.0, limit - (g.now() - begin)))
             button = g.take_button()
             what = self.control.take()
             if what == STOP:
@@ -335,6 +342,7 @@ class Recorder:
                 self.task_text,
             )
             frame = self.schema.frame(row)
+            self.live.recording(index, k, n_max, stats)
             self.store.add_frame(frame)
             stats.frames += 1
             if not self.fast:

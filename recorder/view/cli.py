@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from recorder.argtypes import positive_float
 from recorder.glove.config import SPECS
+from recorder.view.process import view_arg
 
 
 def add_parser(subparsers):
@@ -12,7 +13,13 @@ def add_parser(subparsers):
     v.add_argument("--robot", default="glovehand", help="a robot of configs/robots/ (default: glovehand)")
     v.add_argument("--task", default="pose", help="pose or grasp (default: pose)")
     v.add_argument("--mode", default="joint", choices=("joint", "ik"), help="retargeting mode")
-    v.add_argument("--video", metavar="FILE.mp4", help="render to this video instead of a window")
+    v.add_argument(
+        "--view",
+        type=view_arg,
+        help="native (MuJoCo's viewer), web[:PORT] (a page on 127.0.0.1), rerun[:MODE], none "
+        "(default: native with a display; none with --video)",
+    )
+    v.add_argument("--video", metavar="FILE.mp4", help="also render to this video (with no --view: instead of one)")
     v.add_argument(
         "--duration", type=positive_float, help="seconds (default: until Ctrl-C; 10 s for a video from the emulator)"
     )

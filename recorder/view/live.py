@@ -1,19 +1,21 @@
-"""``gloverec view``: a robot hand in MuJoCo follows the glove live.
+"""``gloverec view``: a robot hand in MuJoCo follows the glove live, shown by a live view (recorder/view/process.py:
+native, web or rerun) or rendered to a video.
 
     gloverec view --glove emulator|serial:PORT|udp:PORT|mcap:FILE --robot NAME [--task pose|grasp]
-                  [--mode joint|ik] [--video FILE.mp4] [--duration S]
+                  [--mode joint|ik] [--view native|web[:PORT]|rerun[:MODE]] [--video FILE.mp4] [--duration S]
 
 The glove's newest HandPose (any glove: pose, compact, or raw frames fused on the host) is retargeted and steps
-the task at its control rate. With a display and no --video, MuJoCo's interactive viewer shows it; otherwise
-frames go to an mp4 (headless: MUJOCO_GL=egl). ``--glove emulator`` runs the glove emulator on a
-pseudo-terminal in this process and reads it through the real serial path.
+the task at its control rate. The view shows what `gloverec record` shows: the scene, the target gesture as a
+ghost, the human hand, the glove's health; its "next" key starts a new scene, "zero" re-takes the reference pose,
+"stop" ends. A video (MUJOCO_GL=egl, headless) has the ghost and the human hand too. ``--glove emulator`` runs
+the glove emulator on a pseudo-terminal in this process and reads it through the real serial path.
 
 The command's flags: recorder/view/cli.py.
 """
 
 from __future__ import annotations
 
-import os
+import threading
 import time
 
 import imageio.v2 as imageio
@@ -24,15 +26,20 @@ from recorder import GloverecError
 from recorder.glove.config import GloveConfig
 from recorder.glove.glove import open_glove
 from recorder.retarget import Retargeter
+from recorder.view.process import ViewSpec, default_view, open_view
+from recorder.view.scene import Stage, frame_of, free_camera, layout_of
 
 VIDEO_SIZE = (480, 640)  # height, width
 FIRST_POSE_S = 5.0  # a raw glove shows its first pose after host fusion's rest (about 1.5 s)
+STATUS_S = 0.25
 
 
 def run(args) -> int:
-    headless = args.video is not None or not os.environ.get("DISPLAY")
-    if headless and args.video is None:
-        raise GloverecError("no display: pass --video FILE.mp4 to render the view to a video")
+    view = args.view
+    if view is None and args.video is None:
+        view, hint = default_view()
+        if hint:
+            raise GloverecError("no display: pass --view web (a page in a browser) or --video FILE.mp4")
     duration = args.duration
     if duration is None and args.video and args.glove == "emulator":
         duration = 10.0
@@ -40,68 +47,106 @@ def run(args) -> int:
     env = make_task(args.task, args.robot, **overrides)
     u = env.unwrapped
     retarget = Retargeter(u.robot, args.mode, base_rotation=u.config.base_rotation)
+    requests: list[str] = []
+    lock = threading.Lock()
+
+    def request(name: str) -> None:
+        with lock:
+            requests.append(name)
+
+    shown = None
+    if view is not None and ViewSpec.parse(view).kind != "none":
+        shown = open_view(view, args.task, args.robot, layout_of(u), overrides, on_event=request, say=print)
+        shown.wait_ready()
     glove = open_glove(GloveConfig.parse(args.glove), motion="gestures")
     try:
         env.reset(seed=0)
         if glove.latest(wait_s=FIRST_POSE_S) is None:
             raise GloverecError(f"no hand pose from {args.glove} in {FIRST_POSE_S:.0f} s: is it a glove, sending?")
-        if headless:
-            steps = _to_video(env, retarget, glove, args.video, duration, args.camera)
+        session = _Session(env, retarget, glove, shown, lock, requests, args)
+        steps = session.run(duration, args.video)
+        if args.video:
             print(f"view: {steps} frames of {args.robot} ({args.task}) to {args.video}, {glove.frames} glove frames")
-        else:
-            _interactive(env, retarget, glove, duration)
     except KeyboardInterrupt:
         pass
     finally:
         glove.close()
+        if shown is not None:
+            shown.close()
         env.close()
     return 0
 
 
-def _step(env, retarget, glove) -> dict:
-    pose = glove.latest()
-    action, info = retarget(pose.angles, pose.palm)
-    _, _, terminated, truncated, _ = env.step(action)
-    if terminated or truncated:
-        env.reset()
-        retarget.reset()
-    return info
+class _Session:
+    """The loop: glove -> retarget -> env, at the task's control rate, shown and/or filmed."""
 
+    def __init__(self, env, retarget, glove, view, lock, requests, args):
+        self.env, self.u, self.retarget, self.glove, self.view = env, env.unwrapped, retarget, glove, view
+        self.lock, self.requests, self.args = lock, requests, args
+        self.seed, self._status, self._status_at = 0, {}, -1.0
 
-def _to_video(env, retarget, glove, path: str, duration, camera: str) -> int:
-    u = env.unwrapped
-    rate = u.config.control_hz
-    h, w = VIDEO_SIZE
-    renderer = mujoco.Renderer(u.model, h, w)
-    steps = 0
-    start = time.monotonic()
-    with imageio.get_writer(path, fps=rate, codec="libx264", quality=7, macro_block_size=8) as out:
+    def run(self, duration, video: str | None) -> int:
+        rate = self.u.config.control_hz
+        writer = stage = renderer = None
+        if video:
+            writer = imageio.get_writer(video, fps=rate, codec="libx264", quality=7, macro_block_size=8)
+            stage = Stage(self.args.task, self.args.robot, {"episode_s": 1e9} if self.args.task == "pose" else {})
+            renderer = mujoco.Renderer(stage.model, *VIDEO_SIZE)
+            camera, opt = free_camera(stage), mujoco.MjvOption()
+        steps, start = 0, time.monotonic()
         try:
             while duration is None or steps < duration * rate:
-                _step(env, retarget, glove)
-                renderer.update_scene(u.data, camera=camera)
-                out.append_data(renderer.render())
+                if self._requests():
+                    break
+                frame = self._step()
+                if self.view is not None:
+                    self.view.publish(frame)
+                    if not self.view.alive:
+                        break  # the window was closed
+                if writer is not None:
+                    stage.apply(frame)
+                    renderer.update_scene(stage.data, camera=camera, scene_option=opt)
+                    stage.decorate(renderer.scene, opt)
+                    writer.append_data(renderer.render())
                 steps += 1
                 delay = start + steps / rate - time.monotonic()  # follow the glove in real time
                 if delay > 0:
                     time.sleep(delay)
         finally:
-            renderer.close()
-    return steps
+            if writer is not None:
+                writer.close()
+                renderer.close()
+        return steps
 
+    def _requests(self) -> bool:
+        """Act on the view's keys; True to stop."""
+        with self.lock:
+            todo, self.requests[:] = list(self.requests), []
+        for name in todo:
+            if name == "stop":
+                return True
+            if name == "reset":
+                self.glove.reset_pose()
+            elif name in ("next", "rerecord"):
+                self._new_scene()
+        return False
 
-def _interactive(env, retarget, glove, duration) -> None:
-    import mujoco.viewer  # only with a display: it loads GLFW
+    def _new_scene(self) -> None:
+        self.seed += 1
+        self.env.reset(seed=self.seed)
+        self.retarget.reset()
 
-    u = env.unwrapped
-    rate = u.config.control_hz
-    with mujoco.viewer.launch_passive(u.model, u.data) as viewer:
-        start = time.monotonic()
-        steps = 0
-        while viewer.is_running() and (duration is None or steps < duration * rate):
-            _step(env, retarget, glove)
-            viewer.sync()
-            steps += 1
-            delay = start + steps / rate - time.monotonic()
-            if delay > 0:
-                time.sleep(delay)
+    def _step(self):
+        pose = self.glove.latest()
+        action, _ = self.retarget(pose.angles, pose.palm)
+        _, _, terminated, truncated, _ = self.env.step(action)
+        if terminated or truncated:
+            self._new_scene()
+        now = time.monotonic()
+        if now - self._status_at >= STATUS_S:
+            self._status_at = now
+            rate = 1.0 / self.glove.track.interval_s(1.0 / self.glove.config.rate_hz)
+            self._status = {"phase": f"viewing {self.args.task} on {self.args.robot}", "seed": self.seed,
+                            "glove": {"rate_hz": rate, "up": self.glove.connected},
+                            "keys": ["hand", "next", "reset", "stop"]}  # fmt: skip
+        return frame_of(self.u, dict(self._status), pose)

@@ -1,0 +1,108 @@
+"""What the person demonstrating sees while `gloverec record` runs (``--view``, recorder/view): the scene as it
+is simulated, the target gesture as a ghost, their own hand as the glove measures it, and the status: the task,
+episode k of N and its phase (reset with a countdown, recording with the time left), the scripted move coming up
+("lift in 1.2 s"), the successes so far, the glove's health and the keys. The view's keys and buttons come back
+as the same requests as the terminal's keys.
+
+Publishing costs the loop a copy of a few kilobytes, at most ``PUBLISH_HZ`` times a second; the status figures
+are refreshed every ``STATUS_S``.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from recorder.view.process import ViewSpec, default_view, open_view
+from recorder.view.scene import frame_of, layout_of
+
+PUBLISH_HZ = 60.0
+STATUS_S = 0.25
+
+
+class LiveView:
+    def __init__(self, view: str | None, cfg, env, glove, control, root, say):
+        """``view``: a view spec, None for the default (native with a display and a terminal, else none, said)."""
+        if view is None:
+            view, hint = default_view()
+            if hint:
+                say(hint)
+        spec = ViewSpec.parse(view)
+        if spec.kind == "rerun" and spec.mode == "save" and not spec.target:
+            (root / "logs").mkdir(parents=True, exist_ok=True)
+            spec = ViewSpec("rerun", mode="save", target=str(root / "logs" / time.strftime("view-%Y%m%d-%H%M%S.rrd")))
+        self.env, self.glove, self.cfg = env, glove, cfg
+        options = {"control_hz": float(cfg.fps), "episode_s": float(env.config.episode_s)}
+        self.view = open_view(spec, cfg.task, cfg.robot, layout_of(env), options, on_event=control.request, say=say)
+        if self.view is not None:
+            self.view.wait_ready()
+        self.saved, self.successes = 0, 0
+        self.task_text = ""
+        self.seed = 0  # the scene's seed: the view resets its copy of the scene with it
+        self._last = 0.0
+        self._status_at = -1.0
+        self._glove: dict = {}
+        self._late_ms = 0.0  # the loop's latest ticks, how late at most: views draw less when it is late
+
+    @property
+    def on(self) -> bool:
+        return self.view is not None
+
+    def saved_episode(self, success: bool) -> None:
+        self.saved += 1
+        self.successes += bool(success)
+
+    def reset_period(self, index: int, countdown: float | None) -> None:
+        self._publish({"phase": "reset", "episode": index, "countdown": countdown})
+
+    def recording(self, index: int, k: int, frames: int, stats) -> None:
+        left = (frames - k - 1) / self.cfg.fps
+        self._publish({"phase": "recording", "episode": index, "time_left": left, "next": self._next_move()},
+                      stats)  # fmt: skip
+
+    def close(self) -> None:
+        if self.view is not None:
+            self.view.close()
+
+    def summary(self) -> dict:
+        """The view and the frame rate it drew at (known once closed)."""
+        if self.view is None:
+            return {"view": "none"}
+        return {"view": str(self.view.spec), "view_fps": round(self.view.stats.get("fps", 0.0), 1)}
+
+    # ------------------------------------------------------------ internals
+    def _publish(self, status: dict, stats=None) -> None:
+        now = time.monotonic()
+        if self.view is None or now - self._last < 1.0 / PUBLISH_HZ:
+            return
+        self._last = now
+        if now - self._status_at >= STATUS_S:
+            self._status_at = now
+            self._glove = self._health(stats)
+        status.update(late_ms=self._late_ms, seed=self.seed, task=self.task_text, episodes=self.cfg.episodes,
+                      saved=self.saved, successes=self.successes, glove=self._glove)  # fmt: skip
+        self.view.publish(frame_of(self.env, status, self.glove.track.newest))
+
+    def _health(self, stats) -> dict:
+        g = self.glove
+        rate = 1.0 / g.track.interval_s(1.0 / self.cfg.glove.rate_hz) if len(g.track) else 0.0
+        out = {"rate_hz": rate, "up": g.connected}
+        if stats is not None:
+            out["late"] = stats.held
+            self._late_ms = max(stats.jitter_s[-25:], default=0.0) * 1e3
+            if stats.latency_s:
+                out["latency_ms_p99"] = float(np.percentile(stats.latency_s, 99) * 1e3)
+            decode, drops = g.source.decoder.stats.as_dict(), g.source.stats().queue_drops
+            out["dropped"] = decode["gaps"] - stats.decode0.get("gaps", 0) + drops - stats.drops0
+        return out
+
+    def _next_move(self) -> str | None:
+        """The task's next scripted move and when ("lift in 1.2 s"), from its schedule (HandGrasp)."""
+        schedule = getattr(self.env, "schedule", None) or {}
+        t = self.env.t
+        upcoming = [(at, name) for name, at in schedule.items() if at > t and name not in ("end", "hold")]
+        if not upcoming:
+            return None
+        at, name = min(upcoming)
+        return f"{name} in {at - t:.1f} s"

@@ -1,0 +1,61 @@
+"""The text every view shows beside the scene, from the status a command publishes with each view frame:
+
+    task         make the fist gesture
+    episode      3 of 10: recording, 2.4 s left
+    next         lift in 1.2 s
+    success      2 of 2 so far
+    glove        200 Hz, latency p99 7.9 ms, late 0, dropped 0
+    keys         F9 next  F10 record again  F11 zero  F12 stop  F8 hand
+
+``lines(status)`` gives (label, value) rows; ``columns(status)`` the two text columns MuJoCo's viewer overlays.
+"""
+
+from __future__ import annotations
+
+# The keys of the native view (MuJoCo's viewer binds Esc, the arrows, the letters and F1-F7 itself): they do what
+# the terminal keys do. GLFW key codes.
+KEYS = {297: "hand", 298: "next", 299: "rerecord", 300: "reset", 301: "stop"}  # F8 .. F12
+KEY_NAMES = {"hand": "F8", "next": "F9", "rerecord": "F10", "reset": "F11", "stop": "F12"}
+ACTIONS = {"next": "next", "rerecord": "record again", "reset": "zero", "stop": "stop", "hand": "human hand"}
+
+
+def lines(status: dict) -> list[tuple[str, str]]:
+    """The overlay's rows, in order; rows the status has nothing for are left out."""
+    rows = []
+    if status.get("task"):
+        rows.append(("task", str(status["task"])))
+    if status.get("episode") is not None:
+        ep = f"{status['episode'] + 1} of {status['episodes']}" if status.get("episodes") else str(status["episode"])
+        phase = status.get("phase", "")
+        if phase == "reset" and status.get("countdown") is not None:
+            phase = f"reset, starts in {status['countdown']:.1f} s (or the glove's button, F9)"
+        elif phase == "recording" and status.get("time_left") is not None:
+            phase = f"recording, {status['time_left']:.1f} s left"
+        rows.append(("episode", f"{ep}: {phase}" if phase else ep))
+    elif status.get("phase"):
+        rows.append(("now", str(status["phase"])))
+    if status.get("step"):
+        rows.append(("step", str(status["step"])))
+    if status.get("next"):
+        rows.append(("next", str(status["next"])))
+    if status.get("saved"):
+        rows.append(("success", f"{status.get('successes', 0)} of {status['saved']} so far"))
+    glove = status.get("glove")
+    if glove:
+        health = f"{glove.get('rate_hz', 0):.0f} Hz"
+        if glove.get("latency_ms_p99") is not None:
+            health += f", latency p99 {glove['latency_ms_p99']:.1f} ms"
+        health += f", late {glove.get('late', 0)}, dropped {glove.get('dropped', 0)}"
+        if not glove.get("up", True):
+            health = "DOWN: waiting for the glove"
+        rows.append(("glove", health))
+    keys = status.get("keys", list(KEY_NAMES))
+    if keys:
+        rows.append(("keys", "  ".join(f"{KEY_NAMES[k]} {ACTIONS[k]}" for k in keys if k in KEY_NAMES)))
+    return rows
+
+
+def columns(status: dict) -> tuple[str, str]:
+    """(labels, values): the two columns of MuJoCo's text overlay."""
+    rows = lines(status)
+    return "\n".join(r[0] for r in rows), "\n".join(r[1] for r in rows)

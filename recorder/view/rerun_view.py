@@ -1,0 +1,89 @@
+"""The rerun view, LeRobot's convention (`lerobot-record --display_data`; rerun-sdk comes with lerobot): per
+actuator the joint target against the joint state, the scene rendered offscreen (with the ghost and the human
+hand), the glove's health and the status text, on rerun's timeline. Where the data goes:
+
+    rerun:spawn             a local rerun viewer (needs a display)
+    rerun:serve[:PORT]      rerun's web viewer served on 127.0.0.1 (its gRPC stream on PORT, default 9876)
+    rerun:connect[:URL]     a rerun viewer that is already running (default rerun+http://127.0.0.1:9876/proxy)
+    rerun:save[:FILE.rrd]   a recording file (default: beside the dataset, <root>/logs/view-<time>.rrd)
+"""
+
+from __future__ import annotations
+
+import time
+
+import mujoco
+import numpy as np
+import rerun as rr
+
+from recorder.view import overlay
+from recorder.view.pace import Pace
+from recorder.view.scene import Stage, free_camera
+
+FPS = 30.0
+IMAGE_FPS = 5.0  # software rendering is costly: the scene image is logged at a lower rate
+SIZE = (240, 320)
+
+
+def open_sink(mode: str, target: str | None) -> str:
+    """Start rerun's recording stream toward ``mode``; returns where it goes (for the operator)."""
+    rr.init("gloverec", spawn=False)
+    if mode == "spawn":
+        rr.spawn()
+        return "a local rerun viewer"
+    if mode == "serve":
+        port = int(target or 9876)
+        url = rr.serve_grpc(grpc_port=port)
+        rr.serve_web_viewer(open_browser=False, connect_to=url)
+        return f"rerun's web viewer at http://127.0.0.1:9090 (stream {url})"
+    if mode == "connect":
+        url = target or "rerun+http://127.0.0.1:9876/proxy"
+        rr.connect_grpc(url)
+        return f"the rerun viewer at {url}"
+    rr.save(target)
+    return f"{target}"
+
+
+def run(
+    stage: Stage, shared, events, closing, mode: str = "save", target: str | None = None, ready=None, meter=None
+) -> None:
+    where = open_sink(mode, target)
+    if ready is not None:
+        ready(where)
+    actuators = [stage.model.actuator(i).name for i in range(stage.model.nu)]
+    renderer = mujoco.Renderer(stage.model, *SIZE)
+    camera, opt = free_camera(stage), mujoco.MjvOption()
+    start, last_image, k, pace, period = time.monotonic(), 0.0, 0, Pace(FPS), 1.0 / FPS
+    try:
+        while not closing():
+            t = time.monotonic()
+            frame = shared.read()
+            if frame is not None:
+                stage.apply(frame)
+                rr.set_time("frame", sequence=k)
+                rr.set_time("time", duration=t - start)
+                k += 1
+                state = stage.data.actuator_length
+                for i, name in enumerate(actuators):
+                    rr.log(f"joints/{name}/target", rr.Scalars(float(frame.ctrl[i])))
+                    rr.log(f"joints/{name}/state", rr.Scalars(float(state[i])))
+                glove = frame.status.get("glove") or {}
+                for key in ("rate_hz", "latency_ms_p99", "late", "dropped"):
+                    if glove.get(key) is not None:
+                        rr.log(f"glove/{key}", rr.Scalars(float(glove[key])))
+                if frame.hand:
+                    rr.log("glove/joint_angles_deg", rr.Scalars(np.degrees(frame.angles)))
+                rr.log("status", rr.TextDocument("\n".join(f"**{a}** {b}  " for a, b in overlay.lines(frame.status)),
+                                                 media_type="text/markdown"))  # fmt: skip
+                if t - last_image >= 1.0 / IMAGE_FPS:
+                    last_image = t
+                    renderer.update_scene(stage.data, camera=camera, scene_option=opt)
+                    stage.decorate(renderer.scene, opt)
+                    rr.log("scene", rr.Image(renderer.render()).compress(jpeg_quality=80))
+                if meter is not None:
+                    meter.tick()
+                period = pace.period(frame.status)
+            time.sleep(max(0.0, period - (time.monotonic() - t)))
+    finally:
+        renderer.close()
+        rr.disconnect()

@@ -1,0 +1,164 @@
+"""The web view: for headless machines and remote operators. A page served on 127.0.0.1 (another address only
+when asked: ``--view web:0.0.0.0:8765``) with the live scene rendered offscreen (EGL) as an MJPEG stream, the
+status text, and buttons for next, record again, zero and stop. Each browser is served by its own thread that
+sends the newest frame when it can, so a slow or closed page never holds up the rendering, let alone the
+recording (which runs in another process). The standard library's HTTP server is enough for one page, a
+stream and four buttons on a local network.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import threading
+import time
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+
+import mujoco
+from PIL import Image
+
+from recorder.view import overlay
+from recorder.view.pace import Pace
+from recorder.view.scene import Stage, free_camera
+
+FPS = 20.0
+SIZE = (480, 640)  # height, width
+PAGE = """<!doctype html>
+<html><head><meta charset="utf-8"><title>gloverec</title>
+<style>
+ body { background: #1e2227; color: #e6e6e6; font: 15px system-ui, sans-serif; margin: 16px; }
+ #scene { width: 640px; height: 480px; background: #000; display: block; }
+ table { border-collapse: collapse; margin: 10px 0; } td { padding: 2px 12px 2px 0; vertical-align: top; }
+ td.k { color: #9aa4ad; } button { font-size: 15px; margin-right: 8px; padding: 6px 14px; }
+</style></head><body>
+<img id="scene" src="/stream" alt="the scene">
+<table id="status"></table>
+<div><button id="next">next</button><button id="rerecord">record again</button>
+<button id="reset">zero</button><button id="stop">stop</button><button id="hand">human hand</button></div>
+<script>
+for (const b of document.querySelectorAll("button"))
+  b.onclick = () => fetch("/key/" + b.id, {method: "POST"});
+async function status() {
+  try {
+    const rows = (await (await fetch("/status")).json()).rows;
+    document.getElementById("status").innerHTML = rows.map(
+      ([k, v]) => `<tr><td class="k">${k}</td><td>${v.replace(/&/g, "&amp;").replace(/</g, "&lt;")}</td></tr>`
+    ).join("");
+  } catch (e) {}
+  setTimeout(status, 250);
+}
+status();
+</script></body></html>
+"""
+
+
+class _Frames:
+    """The newest JPEG and status, with a condition the stream handlers wait on."""
+
+    def __init__(self):
+        self.cond = threading.Condition()
+        self.jpeg = b""
+        self.rows: list = []
+        self.seq = 0
+
+    def put(self, jpeg: bytes, rows: list) -> None:
+        with self.cond:
+            self.jpeg, self.rows, self.seq = jpeg, rows, self.seq + 1
+            self.cond.notify_all()
+
+    def after(self, seq: int, timeout: float = 1.0) -> tuple[int, bytes]:
+        with self.cond:
+            self.cond.wait_for(lambda: self.seq != seq, timeout)
+            return self.seq, self.jpeg
+
+
+def serve(
+    stage: Stage, shared, events, closing, host: str = "127.0.0.1", port: int = 8765, ready=None, meter=None
+) -> None:
+    """Serve the page and render frames until ``closing()``; ``events(name)`` sends a button's request back;
+    ``ready(url)`` is called once the server listens."""
+    frames = _Frames()
+    server = ThreadingHTTPServer((host, port), _handler(frames, events, stage))
+    server.daemon_threads = True
+    threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.2}, daemon=True).start()
+    if ready is not None:
+        ready(f"http://{host}:{server.server_address[1]}/")
+    renderer = mujoco.Renderer(stage.model, *SIZE)
+    camera, opt = free_camera(stage), mujoco.MjvOption()
+    pace, period, last = Pace(FPS), 1.0 / FPS, None
+    try:
+        while not closing():
+            t = time.monotonic()
+            frame = shared.read()
+            if frame is not None:
+                last = frame
+                stage.apply(frame)
+            if last is not None:
+                renderer.update_scene(stage.data, camera=camera, scene_option=opt)
+                stage.decorate(renderer.scene, opt)
+                buf = io.BytesIO()
+                Image.fromarray(renderer.render()).save(buf, "JPEG", quality=80)
+                frames.put(buf.getvalue(), overlay.lines(last.status))
+                period = pace.period(last.status)
+                if meter is not None:
+                    meter.tick()
+            time.sleep(max(0.0, period - (time.monotonic() - t)))
+    finally:
+        server.shutdown()
+        server.server_close()
+        renderer.close()
+
+
+def _handler(frames: _Frames, events, stage: Stage):
+    class Handler(BaseHTTPRequestHandler):
+        def log_message(self, *args) -> None:  # quiet: the command's own output is what the operator reads
+            pass
+
+        def do_GET(self) -> None:
+            if self.path in ("/", "/index.html"):
+                self._send(200, "text/html; charset=utf-8", PAGE.encode())
+            elif self.path == "/status":
+                self._send(200, "application/json", json.dumps({"rows": frames.rows}).encode())
+            elif self.path == "/frame.jpg":
+                self._send(200, "image/jpeg", frames.after(-1)[1])
+            elif self.path == "/stream":
+                self._stream()
+            else:
+                self._send(404, "text/plain", b"not found")
+
+        def do_POST(self) -> None:
+            name = self.path.removeprefix("/key/")
+            if name == "hand":
+                stage.show_hand = not stage.show_hand
+            elif name in overlay.ACTIONS:
+                events(name)
+            else:
+                return self._send(404, "text/plain", b"no such key")
+            self._send(204, "text/plain", b"")
+
+        def _send(self, code: int, kind: str, body: bytes) -> None:
+            self.send_response(code)
+            self.send_header("Content-Type", kind)
+            self.send_header("Content-Length", str(len(body)))
+            self.send_header("Cache-Control", "no-store")
+            self.end_headers()
+            self.wfile.write(body)
+
+        def _stream(self) -> None:
+            self.send_response(200)
+            self.send_header("Content-Type", "multipart/x-mixed-replace; boundary=frame")
+            self.send_header("Cache-Control", "no-store")
+            self.end_headers()
+            seq = -1
+            try:
+                while True:
+                    seq, jpeg = frames.after(seq)
+                    if not jpeg:
+                        continue
+                    head = f"--frame\r\nContent-Type: image/jpeg\r\nContent-Length: {len(jpeg)}\r\n\r\n".encode()
+                    self.wfile.write(head + jpeg + b"\r\n")
+                    self.wfile.flush()
+            except (BrokenPipeError, ConnectionResetError, OSError):
+                return  # the page went away: nothing else notices
+
+    return Handler

@@ -7,12 +7,33 @@ STAMP  := $(VENV)/.installed
 export HF_HUB_OFFLINE ?= 1
 export MUJOCO_GL ?= egl
 
-.PHONY: install demo test bench clean system
+.PHONY: install demo test bench clean system firmware flash
 
-# Debian packages the live-view tests use (a virtual display, a key sender, a headless browser); installed when
-# missing (CI runs as root with the package registries reachable).
-SYSTEM_TOOLS    := Xvfb xdotool chromium chromedriver
+# Debian packages a target needs are installed when missing (CI runs as root with the package registries
+# reachable); when that fails, one line names them and make stops. $(1): a shell test that holds when they are
+# there, $(2): the packages.
+define need_packages
+	@if ! { $(1); } >/dev/null 2>&1; then \
+	  echo "installing $(2)"; \
+	  { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(2) >/dev/null; } \
+	  || { echo "make: cannot install the Debian packages $(2): install them, then run make again" >&2; exit 1; }; \
+	fi
+endef
+have = $(foreach t,$(1),command -v $(t) &&) true
+
+# the live-view tests: a virtual display, a key sender, a headless browser
 SYSTEM_PACKAGES := xvfb xdotool chromium chromium-driver
+# the firmware: cross compiler, newlib and its libstdc++ for the Cortex-M7, QEMU for an emulated M7
+FIRMWARE_PACKAGES := cmake g++ gcc-arm-none-eabi libnewlib-arm-none-eabi libstdc++-arm-none-eabi-newlib \
+                     qemu-system-arm
+FIRMWARE_HAVE := $(call have,cmake g++ arm-none-eabi-g++ qemu-system-arm) && \
+                 test -f "$$(arm-none-eabi-gcc -print-file-name=librdimon.a)" && \
+                 test -f "$$(arm-none-eabi-gcc -print-file-name=libstdc++.a)"
+FW_HOST   := build/firmware
+FW_M7     := firmware/build/m7
+FW_TEENSY := firmware/build/teensy40
+TOOLCHAIN := $(CURDIR)/firmware/cmake/arm-none-eabi.cmake
+IMAGE     ?= glove
 
 install: $(STAMP)
 
@@ -29,14 +50,34 @@ demo: $(STAMP)
 	$(PY) -m recorder.demo
 
 system:
-	@missing=$$(for t in $(SYSTEM_TOOLS); do command -v $$t >/dev/null || echo $$t; done); \
-	if [ -n "$$missing" ]; then \
-	  echo "installing $(SYSTEM_PACKAGES) (missing: $$missing)"; \
-	  { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(SYSTEM_PACKAGES) >/dev/null; } \
-	  || { echo "make: cannot install the Debian packages $(SYSTEM_PACKAGES): install them, then run make test again" >&2; exit 1; }; \
-	fi
+	$(call need_packages,$(call have,Xvfb xdotool chromium chromedriver),$(SYSTEM_PACKAGES))
 
-test: $(STAMP) system
+# The firmware for the real chip: the core's unit tests on the host and on an emulated Cortex-M7 (QEMU
+# mps2-an500), the M7's output against the host's bit for bit, its instruction counts against
+# firmware/m7_counts.json, and the Teensy 4.0 images (firmware/build/teensy40/*.hex) with their sizes.
+firmware:
+	$(call need_packages,$(FIRMWARE_HAVE),$(FIRMWARE_PACKAGES))
+	@cmake -S firmware -B $(FW_HOST) -DCMAKE_BUILD_TYPE=Release >/dev/null
+	cmake --build $(FW_HOST) -j 2
+	ctest --test-dir $(FW_HOST) --output-on-failure -j 2
+	@cmake -S firmware -B $(FW_M7) --toolchain $(TOOLCHAIN) -DGLOVE_TARGET=m7 \
+	  -DGLOVE_HOST_BUILD=$(CURDIR)/$(FW_HOST) >/dev/null
+	cmake --build $(FW_M7) -j 2
+	ctest --test-dir $(FW_M7) --output-on-failure -j 2
+	@cmake -S firmware -B $(FW_TEENSY) --toolchain $(TOOLCHAIN) -DGLOVE_TARGET=teensy40 >/dev/null
+	cmake --build $(FW_TEENSY) -j 2
+	@for i in glove glove_16imu glove_uart; do \
+	  python3 firmware/tools/teensy_size.py $(FW_TEENSY)/$$i.elf --json $(FW_TEENSY)/$$i.size.json || exit 1; done
+
+# Flash a Teensy 4.0 on USB with Debian's teensy-loader-cli: IMAGE=glove (default), glove_16imu or glove_uart.
+flash: firmware
+	$(call need_packages,$(call have,teensy_loader_cli),teensy-loader-cli)
+	@grep -qsi '^16c0$$' /sys/bus/usb/devices/*/idVendor || { echo "make flash: no Teensy on USB (vendor \
+	16c0): connect the glove's Teensy 4.0 with a data cable (press its button if it still does not show)" >&2; \
+	exit 1; }
+	teensy_loader_cli --mcu=TEENSY40 -w -v -s $(FW_TEENSY)/$(IMAGE).hex
+
+test: $(STAMP) system firmware
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 	$(VENV)/bin/lint-imports
@@ -48,4 +89,4 @@ bench: $(STAMP)
 	@for b in bench/*.py; do echo "== $$b"; $(PY) $$b || exit 1; done
 
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache
+	rm -rf $(VENV) build firmware/build *.egg-info .pytest_cache

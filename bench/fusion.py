@@ -1,6 +1,8 @@
 """Fusion accuracy and cost on emulated glove data with ground truth.
 
-For each rate (200 Hz, 1 kHz) and motion ("gestures", "random"): a SyntheticGlove with datasheet noise and
+For each rate (200 Hz, 1 kHz) and motion ("gestures", "random"; at 200 Hz also "gestures_fast" and "random_fast",
+the same motions played twice as fast: finger rates up to 1800 deg/s, hand accelerations up to 13 g, just inside
+the MPU9250's 2000 deg/s and 16 g): a SyntheticGlove with datasheet noise and
 temperature-drifting bias (recorder/emulator defaults) whose wearer first runs the calibration procedure
 (recorder/emulator/procedure.py, 17 s), then 60 s of motion, which is what is scored. Every estimator gets the same
 calibration (gyro bias, accelerometer offsets, sensor-to-segment alignment, reference pose) and the same hand
@@ -8,18 +10,21 @@ model (joint dimensionality, limits, eq. 3.3):
 - ours: HostFusion with each filter (complementary = the thesis' filter, mahony = Santaera Alg. 1, relative =
   Alg. 2, madgwick), full pipeline (online bias tracking, joint-constraint heading feedback);
 - ours, filter only: the same filters without bias tracking and constraint feedback;
+- ours, no constraints: the default filter (inertial) with its bias tracking but without the joint constraints
+  (no constraint feedback, no joint limits): what Kortier's constraints add to a single-IMU filter;
 - baselines: ahrs Madgwick, Mahony, AQUA (gain set per update to the thesis' 0.005 with the eq. 3.19 ramp,
   since adaptive=True would overwrite it with 0.1) and imufusion (Ahrs + its gyro Bias), one object per IMU.
 Scores: per-joint RMS angle error, fingertip position RMS error (palm frame), relative heading drift (slope of
 the heading error of each segment relative to the palm, deg/min), and cost per 12-IMU step (median of runs).
 Writes bench/results/fusion.json and bench/results/fusion_error.png.
 
-    .venv/bin/python bench/fusion.py [--seconds 60] [--rates 200 1000] [--quick]
+    .venv/bin/python bench/fusion.py [--seconds 60] [--rates 200 1000] [--fast-rates 200] [--quick] [--cost-only]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
 import sys
 import time
@@ -39,6 +44,7 @@ from recorder.fusion.host import FusionConfig, HostFusion  # noqa: E402
 from recorder.fusion.registry import FILTERS, make_filter  # noqa: E402
 from recorder.hand import joints  # noqa: E402
 from recorder.hand.kinematics import JOINTS, global_from_relative, relative_quats  # noqa: E402
+from recorder.hand.motion import MotionBlock, SampledMotion  # noqa: E402
 from recorder.hand.skeleton import FINGERS, JOINT_MAP, N_SEGMENTS, PARENTS  # noqa: E402
 from recorder.protocol.frames import RawFrame  # noqa: E402
 
@@ -47,8 +53,27 @@ IMU_SEG = list(JOINT_MAP)
 
 
 # ------------------------------------------------------------------------------------------------ data
+FAST = 2.0  # "<kind>_fast": the motion played this much faster
+
+
+class Faster(SampledMotion):
+    """A motion played ``speed`` times as fast (angles and palm pose at speed * t)."""
+
+    def __init__(self, base: SampledMotion, speed: float):
+        super().__init__(base.rate_hz)
+        self.base, self.speed = base, float(speed)
+
+    def at(self, t) -> MotionBlock:
+        t = np.asarray(t, float)
+        m = self.base.at(t * self.speed)
+        return MotionBlock(t, m.angles, m.palm_quat, m.palm_pos)
+
+
 def make_data(kind: str, rate: int, seconds: float, seed: int) -> dict:
-    glove = emulated.procedure_glove(kind, rate, seed)
+    base = kind.removesuffix("_fast")
+    glove = emulated.procedure_glove(base, rate, seed)
+    if base != kind:
+        glove.motion.motion = Faster(glove.motion.motion, FAST)
     b = glove.next_block(int(round((emulated.START + seconds) * rate)))
     t_us = np.round(np.arange(len(b.t)) * 1e6 / rate).astype(np.int64)
     return {
@@ -120,12 +145,13 @@ def hand_model(hf: HostFusion, q_imu) -> tuple[np.ndarray, np.ndarray]:
 
 
 # ------------------------------------------------------------------------------------------------ ours
-def run_ours(d: dict, name: str, full: bool, runs: int) -> dict:
-    config = (
-        FusionConfig(filter=name, rate_hz=d["rate"])
-        if full
-        else FusionConfig(filter=name, rate_hz=d["rate"], track_bias=False, heading_rate=0.0)
-    )
+def run_ours(d: dict, name: str, full: bool, runs: int, constraints: bool = True) -> dict:
+    if not constraints:  # bias tracking, but no joint-constraint feedback and no joint limits
+        config = FusionConfig(filter=name, rate_hz=d["rate"], heading_rate=0.0, limits=False)
+    elif full:
+        config = FusionConfig(filter=name, rate_hz=d["rate"])
+    else:
+        config = FusionConfig(filter=name, rate_hz=d["rate"], track_bias=False, heading_rate=0.0)
     k1 = d["rest"].stop
     raw, t = d["raw"][k1:], d["t_us"][k1:]
     costs, out = [], None
@@ -170,6 +196,18 @@ def live_cost(d: dict, name: str, frames: int = 2000) -> float:
         hf.process(f)
         times.append(time.perf_counter() - t0)
     return float(np.median(times[100:]) * 1e6)
+
+
+def measure_cost(rates: list[int], seed: int, runs: int) -> dict:
+    """filter_cost and live_cost of every filter at each rate."""
+    cost = {}
+    for rate in rates:
+        d = make_data("gestures", rate, 15.0, seed)
+        for name in FILTERS:
+            c = cost[f"{name}@{rate}Hz"] = filter_cost(name, rate, runs)
+            c["live_us_per_frame"] = live_cost(d, name)
+            print(f"cost {name}@{rate}Hz {c}", flush=True)
+    return cost
 
 
 def long_run(seed: int, minutes: float = 4.0, rate: int = 200) -> dict:
@@ -304,13 +342,16 @@ def main(argv=None) -> int:
     p.add_argument("--seconds", type=float, default=60.0)
     p.add_argument("--rates", type=int, nargs="+", default=[200, 1000])
     p.add_argument("--motions", nargs="+", default=["gestures", "random"])
+    p.add_argument("--fast-rates", type=int, nargs="*", default=[200], help="rates with the fast motions too")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--runs", type=int, default=5, help="timing runs (median)")
     p.add_argument("--no-baselines", action="store_true")
     p.add_argument("--quick", action="store_true", help="10 s, 200 Hz, gestures, 1 run")
+    p.add_argument("--cost-only", action="store_true", help="measure the cost again, keep the rest of fusion.json "
+                   "(for a quiet machine: the accuracy runs do not depend on load, the timings do)")  # fmt: skip
     args = p.parse_args(argv)
     if args.quick:
-        args.seconds, args.rates, args.motions, args.runs = 10.0, [200], ["gestures"], 1
+        args.seconds, args.rates, args.motions, args.runs, args.fast_rates = 10.0, [200], ["gestures"], 1, []
     warnings.filterwarnings("ignore")
     baselines = (
         []
@@ -324,15 +365,25 @@ def main(argv=None) -> int:
             "imufusion",
         ]
     )
+    if args.cost_only:
+        results = json.loads((RESULTS / "fusion.json").read_text())
+        results.pop("meta", None)
+        results["cost"] = measure_cost(args.rates, args.seed, args.runs)
+        write_results("fusion", results)
+        return 0
     results = {"config": vars(args), "accuracy": {}, "cost": {}}
+    default = FusionConfig().filter
     for rate in args.rates:
-        for kind in args.motions:
+        motions = args.motions + ([f"{m}_fast" for m in args.motions] if rate in args.fast_rates else [])
+        for kind in motions:
             case = f"{kind}@{rate}Hz"
             d = make_data(kind, rate, args.seconds, args.seed)
             acc = results["accuracy"][case] = {}
             for name in FILTERS:
                 acc[f"ours_{name}"] = run_ours(d, name, True, args.runs)
                 acc[f"ours_{name}_filter_only"] = run_ours(d, name, False, 1)
+                if name == default:
+                    acc[f"ours_{name}_no_constraints"] = run_ours(d, name, True, 1, constraints=False)
                 print(
                     f"{case:18s} ours_{name:14s} {acc[f'ours_{name}']['joint_rms_deg']:.2f} deg "
                     f"{acc[f'ours_{name}']['fingertip_rms_mm']:.2f} mm "
@@ -347,11 +398,7 @@ def main(argv=None) -> int:
                     f"{acc[name]['heading_drift_max_deg_per_min']:.2f} deg/min",
                     flush=True,
                 )
-        d = make_data("gestures", rate, 15.0, args.seed)
-        for name in FILTERS:
-            c = results["cost"][f"{name}@{rate}Hz"] = filter_cost(name, rate, args.runs)
-            c["live_us_per_frame"] = live_cost(d, name)
-            print(f"cost {name}@{rate}Hz {c}", flush=True)
+    results["cost"] = measure_cost(args.rates, args.seed, args.runs)
     if not args.quick:
         results["long_run"] = long_run(args.seed)
         for name, v in results["long_run"].items():

@@ -350,24 +350,31 @@ def from_gravity(a):
     return np.stack([cr * cp, sr * cp, cr * sp, -sr * sp], -1)
 
 
-def reference_filter(gyro, accel, dt, gain=0.005, t1=0.1, t2=0.2, window=12):
-    """Thesis eq. 3.4-3.19 in float64: median-filtered accelerometer (buffer 12), eq. 3.4 propagation, the
-    adaptive gain, the global-frame correction towards (0, 0, 1). Cycle 0 initialises from gravity."""
+def reference_filter(gyro, accel, dt, tau=4.0, ramp=3.0):
+    """The glove's filter (docs/fusion.md, "inertial") in float64: q = q_c q_g; q_g integrates the gyro (the
+    exact exponential); the accelerometer in q_g's frame through three first-order low-passes of time constant
+    tau, g = y3 + ramp (y2 - y3); q_c turns q_c g onto (0, 0, 1) by the shortest rotation, all of it. Cycle 0
+    initialises from gravity (eq. 3.5-3.6)."""
     n = gyro.shape[1]
     out = np.empty(gyro.shape[:2] + (4,))
-    buf = [accel[0]]
-    q = out[0] = from_gravity(accel[0])
-    for k in range(1, len(gyro)):
-        buf = (buf + [accel[k]])[-window:]
-        a = np.median(buf, axis=0)
-        qw = normalize(q + qmul(q, np.concatenate([np.zeros((n, 1)), dt / 2 * gyro[k]], -1)))  # eq. 3.4
-        an = np.linalg.norm(a, axis=-1)
-        em = np.abs(an - 1)  # eq. 3.17
-        alpha = gain * np.where(em <= t1, 1.0, np.where(em >= t2, 0.0, (t2 - em) / (t2 - t1)))[:, None]
-        gp = rotate(qw, a / an[:, None])  # eq. 3.12
-        dq = normalize(np.stack([1 + gp[:, 2], gp[:, 1], -gp[:, 0], np.zeros(n)], -1))  # eq. 3.13: g_p -> z
-        dq = normalize((1 - alpha) * np.array([1.0, 0, 0, 0]) + alpha * dq)  # eq. 3.14-3.15
-        q = out[k] = normalize(qmul(dq, qw))  # eq. 3.16, correction in the global frame
+    qc = out[0] = from_gravity(accel[0])
+    qg = np.tile([1.0, 0, 0, 0], (n, 1))
+    y1, y2, y3 = accel[0].copy(), accel[0].copy(), accel[0].copy()
+    k = min(dt / tau, 1.0)
+    for t in range(1, len(gyro)):
+        h = dt / 2 * gyro[t]
+        ang = np.linalg.norm(h, axis=-1, keepdims=True)
+        step = np.concatenate([np.cos(ang), h / np.maximum(ang, 1e-300) * np.sin(ang)], -1)
+        qg = normalize(qmul(qg, np.where(ang > 0, step, [1.0, 0, 0, 0])))
+        a = rotate(qg, accel[t])
+        y1 = y1 + k * (a - y1)
+        y2 = y2 + k * (y1 - y2)
+        y3 = y3 + k * (y2 - y3)
+        e = rotate(qc, y3 + ramp * (y2 - y3))
+        e = e / np.linalg.norm(e, axis=-1, keepdims=True)
+        dq = normalize(np.stack([1 + e[:, 2], e[:, 1], -e[:, 0], np.zeros(n)], -1))  # e -> (0, 0, 1)
+        qc = normalize(qmul(dq, qc))
+        out[t] = normalize(qmul(qc, qg))
     return out
 
 

@@ -48,7 +48,7 @@ def rms_deg(out, glove):
     return np.degrees(np.sqrt(np.mean((out.angles[k:] - glove["block"].angles[glove["k0"] :]) ** 2, axis=0)))
 
 
-@pytest.mark.parametrize("name", ["complementary", "mahony", "relative", "madgwick"])
+@pytest.mark.parametrize("name", ["inertial", "complementary", "mahony", "relative", "madgwick"])
 def test_joint_angles_and_fingertips_match_the_ground_truth(glove, name):
     hf = started(glove, filter=name)
     k1 = glove["k1"]
@@ -64,7 +64,7 @@ def test_joint_angles_and_fingertips_match_the_ground_truth(glove, name):
     np.testing.assert_allclose(out.quats[-1, 1:], joints.constrained_relative(out.angles[-1])[1:], atol=1e-12)
 
 
-@pytest.mark.parametrize("name", ["mahony", "relative"])
+@pytest.mark.parametrize("name", ["inertial", "mahony", "relative"])
 def test_an_imu_first_seen_mid_block_starts_from_gravity(glove, name):
     """Without ``start`` every IMU starts at its first fused sample: attitude from gravity (eq. 3.5-3.6), its
     clock, and its heading reference from the hand model in the reference pose (eq. 3.21). IMU 7 (middle
@@ -91,18 +91,30 @@ def test_an_imu_first_seen_mid_block_starts_from_gravity(glove, name):
     assert np.sqrt(np.mean(err**2)) < 1.0 and err.max() < 2.0, dict(zip(JOINTS, err.round(2)))
 
 
-def test_a_drifting_bias_does_not_become_drifting_joints(glove):
-    """After calibration every gyro gets an extra bias growing to 0.5 deg/s per axis (temperature): with
-    bias tracking and the joint-constraint feedback the joints stay; without them they drift."""
+def test_a_drifting_bias_does_not_become_drifting_joints():
+    """After calibration every gyro gets an extra bias growing to 0.5 deg/s per axis over 30 s (temperature):
+    with bias tracking and the joint-constraint feedback the joints stay; without them they drift. (30 s, not
+    the 8 s of the other tests: the default filter's tilt follows a steady drift by itself, so the difference
+    is the heading, which takes time to add up.)"""
+    long = emulated.procedure_glove("gestures", RATE, seed=2)
+    b = long.next_block(int((emulated.START + 30.0) * RATE))
+    t = np.round(np.arange(len(b.t)) * 1e6 / RATE).astype(np.int64)
+    glove = {
+        "block": b,
+        "t": t,
+        "rec": {p: (b.raw[emulated.phase(p, RATE)], t[emulated.phase(p, RATE)]) for p in emulated.PHASES},
+        "k1": emulated.phase("rest", RATE).stop,
+        "k0": int(emulated.START * RATE),
+    }
     k1 = glove["k1"]
-    raw = glove["block"].raw[k1:].copy()
+    raw = b.raw[k1:].copy()
     T = len(raw)
     rng = np.random.default_rng(5)
     ramp = np.linspace(0, 1, T)[:, None, None] * rng.choice([-0.5, 0.5], (1, 12, 3)) * 16.4  # LSB, 16.4/dps
     raw[..., 3:6] = np.clip(raw[..., 3:6] + np.round(ramp), -32768, 32767).astype(np.int16)
     errs = []
     for config in ({}, {"track_bias": False, "heading_rate": 0.0}):
-        out = started(glove, **config).process_block(raw, glove["t"][k1:])
+        out = started(glove, **config).process_block(raw, t[k1:])
         errs.append(rms_deg(out, glove))
     assert np.sqrt(np.mean(errs[0] ** 2)) < 1.0, errs[0].round(2)
     assert np.sqrt(np.mean(errs[1] ** 2)) > 1.5 * np.sqrt(np.mean(errs[0] ** 2)), (errs[0].round(2), errs[1].round(2))

@@ -8,7 +8,7 @@ foreach(f ${files})
       continue()
     endif()
     if(line MATCHES "#include[ ]*<(vector|string|map|memory|list|deque|functional|iostream|sstream|Arduino\\.h|Wire\\.h)>"
-       OR line MATCHES "#include[ ]*\"(Arduino|Wire|mpu9250)\\.h\""
+       OR line MATCHES "#include[ ]*\"(Arduino|Wire)\\.h\""
        OR line MATCHES "(^|[^a-z_])(malloc|calloc|realloc|free)[ ]*\\("
        OR line MATCHES "(^|[^a-z_])new[ ]+[A-Za-z_]"
        OR line MATCHES "std::(vector|string|function|unique_ptr|shared_ptr)")

@@ -20,14 +20,15 @@ constexpr uint8_t kNumImus = GLOVE_N_IMU;
 constexpr uint8_t kButtonPin = 5;           // button to 3.3 V, 10 kOhm from the pin to GND (figure 4.1)
 constexpr bool kButtonActiveHigh = true;    // pressed reads HIGH (Button<HIGH>); false for a button to GND
 constexpr uint32_t kDebounceMs = 50;        // thesis: Button<HIGH> rstBtn(5), 50 ms
-constexpr uint8_t kMuxAddress = 0x70;       // TCA9548A, A0-A2 low
 constexpr uint32_t kI2cClockHz = 400000;    // MPU9250 I2C fast mode (the datasheet's maximum)
 constexpr uint32_t kSerialBaud = 115200;    // ignored by USB serial; the line rate of Serial1
-constexpr uint16_t kSenseRateHz = 100;      // 12 reads of 23 bytes at 400 kHz take ~7.5 ms (README)
+// Sensing as fast as the bus allows, with room for the core and Wire's own time in each period (README,
+// test/host/test_imu_bus.cpp): 12 burst reads of 14 bytes and 6 mux switches at 400 kHz take 4.92 ms (at most
+// 203 cycles a second), 16 reads and 8 switches 6.56 ms (152 a second).
+constexpr uint16_t sense_rate_hz(uint8_t n_imu) { return n_imu > 12 ? 140 : 190; }
+constexpr uint16_t kSenseRateHz = sense_rate_hz(kNumImus);
 constexpr uint16_t kOutputRateHz = 50;
 constexpr uint8_t kMode = GLOVE_MODE;       // the host's set_mode changes it
-constexpr uint8_t kMissesBeforeFault = 3;   // consecutive failed reads before an IMU is reported and skipped
-constexpr uint32_t kRetryMs = 100;          // a faulted IMU is tried again this often (one cheap read)
 constexpr uint8_t kFirmware[3] = {1, 0, 0};
 
 #if GLOVE_N_IMU == 12

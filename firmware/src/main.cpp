@@ -1,13 +1,13 @@
 // Teensy 4.0 glove firmware: 12 (or 16) MPU9250 behind a TCA9548A, a reset button on pin 5, frames out over
-// USB serial (docs/protocol.md). Everything but the hardware access is gc::Glove (lib/glove_core), which the
-// host build tests; this file reads sensors, the button and the serial port, and keeps the sensing rate.
+// USB serial (docs/protocol.md). Everything but the hardware access is the core (lib/glove_core: gc::Glove, the
+// IMU driver gc::ImuBus), which the host and M7 builds test; this file wires the core to Wire, the button pin
+// and the serial port, and keeps the sensing rate.
 #include <Arduino.h>
 #include <Wire.h>
 
 #include "glove_config.h"
 #include "glove_core.h"
-#include "i2c_mux.h"
-#include "imu.h"
+#include "wire_bus.h"
 
 namespace {
 
@@ -22,15 +22,12 @@ struct SerialSink final : gc::FrameSink {
     }
 };
 
-I2cMux mux(Wire, kMuxAddress);
-Imu imus[kNumImus];
+WireBus bus(Wire);
+gc::ImuBus imus;
 gc::Glove glove;
 gc::Debouncer button;
 SerialSink sink;
 int16_t raw[kNumImus][7];
-uint8_t misses[kNumImus];
-uint32_t retry_at_ms[kNumImus];
-uint16_t ok_mask = 0;
 uint32_t next_sense_us = 0;
 bool was_calibrating = false;
 
@@ -57,34 +54,6 @@ gc::GloveSettings settings() {
     return s;
 }
 
-// Read every IMU once. A silent IMU costs at most one failed transaction per kRetryMs: after
-// kMissesBeforeFault misses in a row it is reported (ok bit clear, the core sends imu_fault) and skipped.
-void read_imus() {
-    const uint32_t now_ms = millis();
-    for (uint8_t i = 0; i < kNumImus; ++i) {
-        const uint16_t bit = static_cast<uint16_t>(1u << i);
-        const bool faulted = misses[i] >= kMissesBeforeFault;
-        if (faulted && static_cast<int32_t>(now_ms - retry_at_ms[i]) < 0) continue;
-        if (imus[i].read(raw[i])) {
-            misses[i] = 0;
-            ok_mask |= bit;
-            continue;
-        }
-        if (misses[i] < kMissesBeforeFault) ++misses[i];  // a miss or two: the previous sample stands in
-        if (misses[i] >= kMissesBeforeFault) {
-            ok_mask = static_cast<uint16_t>(ok_mask & ~bit);
-            retry_at_ms[i] = now_ms + kRetryMs;
-        }
-    }
-}
-
-// An IMU that lost power comes back asleep and needs its configuration again. begin() blocks (the library
-// waits after register writes), so it only runs when the hand is held still anyway: on a recalibration.
-void reinit_faulted_imus() {
-    for (uint8_t i = 0; i < kNumImus; ++i)
-        if (misses[i] >= kMissesBeforeFault && imus[i].begin()) misses[i] = 0;
-}
-
 }  // namespace
 
 void setup() {
@@ -93,12 +62,10 @@ void setup() {
     Wire.setClock(kI2cClockHz);
     pinMode(kButtonPin, INPUT);
     button.init(kDebounceMs, kButtonActiveHigh);
-    for (uint8_t i = 0; i < kNumImus; ++i) {
-        imus[i].config(&Wire, secondary_address(i), &mux, kMuxMap[i]);
-        const bool ok = imus[i].begin();
-        misses[i] = ok ? 0 : kMissesBeforeFault;
-        if (ok) ok_mask = static_cast<uint16_t>(ok_mask | 1u << i);
-    }
+    bool high[kNumImus];
+    for (uint8_t i = 0; i < kNumImus; ++i) high[i] = secondary_address(i);
+    imus.init(&bus, kNumImus, kMuxMap, high);
+    imus.begin();
     glove.init(settings(), &sink);
     glove.begin(micros());  // boot event, status, then the gyro calibration (thesis figure 4.5)
     next_sense_us = micros();
@@ -112,7 +79,7 @@ void loop() {
     if (button.update(digitalRead(kButtonPin) == HIGH, millis())) glove.button(micros());
 
     const bool calibrating = glove.calibration().running();
-    if (calibrating && !was_calibrating) reinit_faulted_imus();
+    if (calibrating && !was_calibrating) imus.reinit_faulted();  // an IMU that lost power: configure it again
     was_calibrating = calibrating;
 
     const uint32_t now = micros();  // fixed-rate sensing; the output rate is the core's business
@@ -120,6 +87,6 @@ void loop() {
     const uint32_t period = 1000000u / glove.sense_rate_hz();
     next_sense_us += period;
     if (static_cast<int32_t>(now - next_sense_us) >= 0) next_sense_us = now + period;  // overran: no burst
-    read_imus();
+    const uint16_t ok_mask = imus.read_all(millis(), raw);
     glove.sense(now, raw, ok_mask);
 }

@@ -1,19 +1,26 @@
 // glove_core_bench: a fixed workload for bench/firmware.py to count instructions with valgrind/callgrind.
 //
 //   glove_core_bench WHAT CYCLES
-//     filter  12 complementary-filter updates per cycle (median filter + eq. 3.4-3.19)
+//     filter  12 filter updates per cycle (the default, FilterMode::Inertial)
+//     filter_thesis  the same with the thesis' filter (FilterMode::Thesis: median filter + eq. 3.4-3.19)
 //     pose    parent-relative pose (eq. 3.21, 3.3) + pose frame encoding (CRC, COBS) per cycle
 //     cycle   filter + pose: one 12-IMU sensing cycle that also sends a pose frame
 //     glove   gc::Glove::sense on register counts with a pose frame every cycle (everything the loop does
-//             besides I2C and the serial port)
+//             besides I2C and the serial port); glove_raw, glove_json, glove_compact: the same in the other
+//             output modes (a raw frame, a legacy JSON line, a pose_compact frame every cycle)
+//     bus     no cycles: the I2C bus time of one sensing cycle (gc::ImuBus::cycle_us) for 12 and 16 IMUs on
+//             the thesis' wiring at 100 kHz, 400 kHz and 1 MHz: "bus N_IMU CLOCK_HZ MICROSECONDS"
 //     json    parent-relative pose + legacy JSON line per cycle
 //     compact parent-relative pose + 20 joint angles + pose_compact frame per cycle
 // Inputs are precomputed at start-up, so a run with CYCLES = 0 measures the start-up alone; bench/firmware.py
-// subtracts it. Prints a checksum so the work cannot be optimised away.
+// subtracts it (callgrind on the host). Prints a checksum so the work cannot be optimised away.
+// On the Cortex-M7 (QEMU with -icount shift=0: test/m7/qemu_m7.sh) it also prints the instructions per cycle,
+// counted with SysTick around the cycles and scaled by a loop of known length: "m7_instructions_per_cycle X".
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <initializer_list>
 
 #include "glove_core.h"
 
@@ -47,28 +54,87 @@ void make_inputs() {
         }
 }
 
+#if defined(__arm__)
+// SysTick, counting down at the core clock: under QEMU's -icount shift=0 one tick is a fixed number of
+// instructions (40 on mps2-an500's 25 MHz), measured below with a loop of known length.
+volatile uint32_t* const kSysTick = reinterpret_cast<volatile uint32_t*>(0xE000E010u);  // CSR, RVR, CVR
+constexpr uint32_t kTickMask = 0xFFFFFFu;
+
+void systick_start() {
+    kSysTick[1] = kTickMask;
+    kSysTick[2] = 0;
+    kSysTick[0] = 5;  // enable, core clock, no interrupt
+    while (kSysTick[2] == 0) {
+    }
+}
+uint32_t ticks_since(uint32_t start) { return (start - kSysTick[2]) & kTickMask; }
+
+// exactly 2 instructions per iteration (subs, bne)
+__attribute__((noinline)) void spin(uint32_t n) { __asm volatile("1: subs %0, %0, #1\n\tbne 1b" : "+r"(n)); }
+
+double instructions_per_tick() {
+    constexpr uint32_t n = 1000000;
+    const uint32_t t0 = kSysTick[2];
+    spin(n);
+    return 2.0 * n / ticks_since(t0);
+}
+#endif
+
+}  // namespace
+
+namespace {
+
+bool known(const char* what) {
+    for (const char* w : {"filter", "filter_thesis", "pose", "cycle", "glove", "glove_raw", "glove_json", "glove_compact", "json",
+                          "compact", "bus"})
+        if (!std::strcmp(what, w)) return true;
+    return false;
+}
+
+void print_bus_budget() {
+    const uint8_t channel[16] = {0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5, 6, 6, 7, 7};
+    const bool high[16] = {true, false, true, false, true, false, true, false,
+                           true, false, true, false, true, false, true, false};
+    for (uint8_t n : {uint8_t(12), uint8_t(16)})
+        for (uint32_t hz : {100000ul, 400000ul, 1000000ul}) {
+            ImuBus imus;
+            imus.init(nullptr, n, channel, high);
+            std::printf("bus %d %lu %.3f\n", n, static_cast<unsigned long>(hz), imus.cycle_us(I2cTiming{hz}));
+        }
+}
+
+Mode glove_mode(const char* what) {
+    if (!std::strcmp(what, "glove_raw")) return Mode::Raw;
+    if (!std::strcmp(what, "glove_json")) return Mode::Json;
+    if (!std::strcmp(what, "glove_compact")) return Mode::Compact;
+    return Mode::Pose;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc != 3) {
-        std::fprintf(stderr, "usage: glove_core_bench filter|pose|cycle|glove|json|compact CYCLES\n");
+    if (argc != 3 || !known(argv[1])) {
+        std::fprintf(stderr, "usage: glove_core_bench filter|filter_thesis|pose|cycle|glove|glove_raw|glove_json|glove_compact|json|"
+                             "compact|bus CYCLES\n");
         return 2;
     }
     const char* what = argv[1];
     const long cycles = std::atol(argv[2]);
-    const bool do_filter = !std::strcmp(what, "filter") || !std::strcmp(what, "cycle");
-    const bool do_pose = !std::strcmp(what, "pose") || !std::strcmp(what, "cycle");
-    const bool do_glove = !std::strcmp(what, "glove"), do_json = !std::strcmp(what, "json");
-    const bool do_compact = !std::strcmp(what, "compact");
-    if (!do_filter && !do_pose && !do_glove && !do_json && !do_compact) {
-        std::fprintf(stderr, "unknown workload %s\n", what);
-        return 2;
+    if (!std::strcmp(what, "bus")) {
+        print_bus_budget();
+        return 0;
     }
+    const bool do_filter = !std::strncmp(what, "filter", 6) || !std::strcmp(what, "cycle");
+    const bool do_pose = !std::strcmp(what, "pose") || !std::strcmp(what, "cycle");
+    const bool do_json = !std::strcmp(what, "json"), do_compact = !std::strcmp(what, "compact");
+    const bool do_glove = !std::strncmp(what, "glove", 5);
     make_inputs();
 
     static Hand hand;
     const uint8_t joint[kN] = {0, 1, 2, 3, 4, 5, 7, 8, 10, 11, 13, 14};
-    hand.init(HandSettings{}, kN, joint);
+    HandSettings hs;
+    if (!std::strcmp(what, "filter_thesis")) hs.filter = thesis_settings();
+    hand.init(hs, kN, joint);
     for (int i = 0; i < kN; ++i)
         for (int k = 0; k < 12; ++k) hand.observe(static_cast<uint8_t>(i), g_accel[k][i]);
     hand.reset_pose();
@@ -79,6 +145,7 @@ int main(int argc, char** argv) {
     gs.sense_rate_hz = 1000;
     gs.output_rate_hz = 1000;
     gs.calibrate_at_boot = false;
+    gs.mode = glove_mode(what);
     glove.init(gs, &sink);
     glove.begin(0);
     glove.sense(1000, g_raw[0], 0xFFF);  // first cycle: attitude from gravity
@@ -86,6 +153,11 @@ int main(int argc, char** argv) {
     static uint8_t frame[kMaxWire];
     static char line[kMaxJsonLine];
     uint32_t sum = 0;
+#if defined(__arm__)
+    systick_start();
+    const double per_tick = instructions_per_tick();
+    const uint32_t t0 = kSysTick[2];
+#endif
     for (long c = 0; c < cycles; ++c) {
         const int k = static_cast<int>(c % kTable);
         if (do_glove) {
@@ -112,7 +184,13 @@ int main(int argc, char** argv) {
             sum += static_cast<uint32_t>(n) + frame[n / 2];
         }
     }
+#if defined(__arm__)
+    const uint32_t ticks = ticks_since(t0);
+    if (cycles > 0)
+        std::printf("m7_instructions_per_cycle %.1f (%lu ticks of %.3f instructions)\n", ticks * per_tick / cycles,
+                    static_cast<unsigned long>(ticks), per_tick);
+#endif
     const Quat q = hand.filter(3).quaternion();
-    std::printf("checksum %u %u %.6f\n", sum, sink.sum, static_cast<double>(q.w + glove.hand().filter(3).quaternion().w));
+    std::printf("checksum %lu %lu %.6f\n", static_cast<unsigned long>(sum), static_cast<unsigned long>(sink.sum), static_cast<double>(q.w + glove.hand().filter(3).quaternion().w));
     return 0;
 }

@@ -18,6 +18,7 @@
 //   --n-imu N            IMUs per sample (12; 16 uses the 16-IMU layout)       --sense-rate HZ  (1000)
 //   --output-rate HZ     (100)                                       --mode pose|raw|json|compact (pose)
 //   --calib-samples N    gyro calibration length at boot; 0 = none (256)       --t0 US  first sample time (0)
+//   --filter inertial|thesis   the orientation filter (FilterMode; inertial)
 //   --rx FILE            host bytes: records of u32 cycle, u16 length, bytes; delivered before that cycle
 //   --button K           press the reset button before cycle K (repeatable)
 //   --trace FILE         after each cycle: n_imu x (w, x, y, z) float64 global filter quaternions
@@ -214,7 +215,11 @@ int run(int argc, char** argv) {
         else if (!std::strcmp(a, "--sense-rate")) s.sense_rate_hz = static_cast<uint16_t>(std::atoi(val()));
         else if (!std::strcmp(a, "--output-rate")) s.output_rate_hz = static_cast<uint16_t>(std::atoi(val()));
         else if (!std::strcmp(a, "--calib-samples")) s.calibration.samples = static_cast<uint16_t>(std::atoi(val()));
-        else if (!std::strcmp(a, "--t0")) t0 = static_cast<uint32_t>(std::strtoul(val(), nullptr, 0));
+        else if (!std::strcmp(a, "--filter")) {
+            const char* f = val();
+            if (!std::strcmp(f, "thesis")) s.hand.filter = thesis_settings();
+            else if (std::strcmp(f, "inertial")) die("--filter must be inertial or thesis, not ", f);
+        } else if (!std::strcmp(a, "--t0")) t0 = static_cast<uint32_t>(std::strtoul(val(), nullptr, 0));
         else if (!std::strcmp(a, "--rx")) rx_path = val();
         else if (!std::strcmp(a, "--button")) buttons.push_back(std::atol(val()));
         else if (!std::strcmp(a, "--trace")) trace_path = val();

@@ -12,10 +12,10 @@ from recorder.config import STRICT, ConfigError, NonNegative, Positive
 from recorder.fusion.bias import BiasSettings
 from recorder.fusion.registry import FILTERS, settings_for
 
-PARENT_SHARE = {"complementary": 0.0, "mahony": 0.5, "relative": 0.0, "madgwick": 0.5}
+PARENT_SHARE = {"complementary": 0.0, "mahony": 0.5, "relative": 0.0, "madgwick": 0.5, "inertial": 0.5}
 # Madgwick's normalised gradient step does not pull a tilt back in proportion to its error, so a bias learned
 # wrongly from the joints lingers: it learns from them more slowly (a 4-minute run ran away at 0.5).
-HEADING_BIAS_RATE = {"complementary": 1.0, "mahony": 1.0, "relative": 1.0, "madgwick": 0.2}
+HEADING_BIAS_RATE = {"complementary": 1.0, "mahony": 1.0, "relative": 1.0, "madgwick": 0.2, "inertial": 1.0}
 
 
 @dataclass
@@ -25,7 +25,7 @@ class FusionConfig:
 
     __pydantic_config__ = STRICT
 
-    filter: Literal["complementary", "mahony", "relative", "madgwick"] = "mahony"
+    filter: Literal["inertial", "complementary", "mahony", "relative", "madgwick"] = "inertial"
     filter_settings: dict = field(default_factory=dict)
     rate_hz: Annotated[float, Positive] = 200.0  # nominal sensing rate (calibration recordings given without times)
     max_dt_s: Annotated[float, Positive] = 0.05  # longest gap integrated in one step (as the firmware)

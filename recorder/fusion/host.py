@@ -5,7 +5,8 @@ Per raw frame, in this order (docs/fusion.md):
    fused this frame;
 2. calibration (recorder/hand/calibration.py): accelerometer offset and static gyro bias removed (eq. 3.20),
    then the tracked bias (recorder/fusion/bias.py);
-3. dt per IMU: device time since that IMU's last fused sample (u32 microseconds, wraps), at most max_dt_s;
+3. dt per IMU: device time since that IMU's last fused sample (u32 microseconds, wraps), at most max_dt_s; after
+   frames it missed (flagged), the gap is integrated at the mean of its last fused rate and this one;
 4. one filter step for all IMUs (the configured filter, recorder/fusion/registry.py);
 5. bias tracking;
 6. hand model: segment = C (x) q_imu (x) mount^-1 (C: heading reference, thesis eq. 3.21; mount: Kortier
@@ -140,6 +141,8 @@ class HostFusion:
         self.heading = np.zeros(N_IMUS)
         self.started = np.zeros(N_IMUS, bool)
         self.last_t = np.zeros(N_IMUS, np.int64)
+        self.last_gyro = np.zeros((N_IMUS, 3))  # rad/s, each IMU's last fused rate (bias removed)
+        self.missed = np.zeros(N_IMUS, bool)  # frames were missed since the IMU's last fused sample
         self.last_quats = joints.constrained_relative(np.zeros(N_JOINTS))  # pose frames: the last good one
         self.rest_angles = None  # the pose (20,) rad the hand holds at start and reset; None: the calibration's
 
@@ -198,6 +201,8 @@ class HostFusion:
         self.filter.bias[:] = 0.0
         self.tracker.b[:] = 0.0
         self.started[:] = True
+        self.missed[:] = False
+        self.last_gyro[:] = 0.0
         last = _last_t(still)
         if last is not None:
             self.last_t[:] = last
@@ -280,6 +285,8 @@ class HostFusion:
         starts, and their heading reference from the hand model in its reference pose (eq. 3.21)."""
         self.filter.reset(accel, new)
         self.started |= new
+        self.missed[new] = False
+        self.last_gyro[new] = 0.0
         self.last_t[new] = t_us
         self.C[new] = cal.reference(self.filter.q, self.calibration.mounts, self.reference_angles)[new]
 
@@ -301,6 +308,15 @@ class HostFusion:
         else:
             rel, root_q, root_bias = np.zeros((N_IMUS, 4)), np.zeros((N_IMUS, 4)), np.zeros((N_IMUS, 3))
             parents, order = np.full(N_IMUS, -1, np.int64), np.arange(N_IMUS, dtype=np.int64)
+        if kind == 4:
+            qg, qc, lp, nobs = f.qg, f.qc, f.lp, f.nobs
+        else:
+            qg, qc, lp, nobs = (
+                np.zeros((N_IMUS, 4)),
+                np.zeros((N_IMUS, 4)),
+                np.zeros((N_IMUS, 3, 3)),
+                np.zeros(N_IMUS, np.int64),
+            )
         tab = _TABLES
         sl = slice(k0, k1)
         pipeline.run(
@@ -316,6 +332,10 @@ class HostFusion:
             root_bias,
             parents,
             order,
+            qg,
+            qc,
+            lp,
+            nobs,
             np.array(f.params(), float),
             bool(getattr(f.settings, "rotate_parent_rate", True)),
             tr.b,
@@ -326,6 +346,8 @@ class HostFusion:
             self.C,
             self.heading,
             self.last_t,
+            self.last_gyro,
+            self.missed,
             np.ascontiguousarray(quat.conj(self.calibration.mounts)),
             c.heading_rate,
             c.heading_bias_rate,

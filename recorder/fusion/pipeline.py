@@ -14,7 +14,7 @@ from recorder.hand import joints
 from recorder.hand.kinematics import DIP, DIP_PER_PIP, LIMITS, PIP, REST
 from recorder.hand.skeleton import JOINT_MAP, N_SEGMENTS, PARENTS
 
-KINDS = {"complementary": 0, "mahony": 1, "madgwick": 2, "relative": 3}
+KINDS = {"complementary": 0, "mahony": 1, "madgwick": 2, "relative": 3, "inertial": 4}
 
 
 def hand_tables():
@@ -225,6 +225,10 @@ def run(
     root_bias,
     parents,
     order,
+    qg,
+    qc,
+    lp,
+    nobs,
     fp,
     rotate_parent,
     b,
@@ -235,6 +239,8 @@ def run(
     C,
     heading,
     last_t,
+    last_g,
+    missed,
     minv,
     heading_rate,
     heading_bias_rate,
@@ -266,8 +272,8 @@ def run(
 ):
     """Steps 3-7 of host.py over T frames; every state array is updated in place. fp: the filter's settings
     (complementary: gain, t1, t2; mahony: kp, ki, t1, t2, integral_limit; madgwick: beta, t1, t2; relative: kp,
-    ki, root_kp, root_ki, t1, t2, integral_limit); bp: BiasSettings (ki, still_rate, still_time_s, still_tau_s,
-    max_bias)."""
+    ki, root_kp, root_ki, t1, t2, integral_limit; inertial: tau_s, ramp); bp: BiasSettings (ki, still_rate,
+    still_time_s, still_tau_s, max_bias)."""
     T, n = gyro.shape[0], gyro.shape[1]
     srt = K._sorted_windows(buf, count)
     scratch = np.empty(3)
@@ -293,6 +299,15 @@ def run(
             trust[i] = K._gain_factor(an, 0.1, 0.2)
             for c in range(3):
                 gc[i, c] = gyro[t, i, c] - b[i, c]
+            if fuse[t, i]:  # after missed frames, the gap is integrated at the mean of the rates at its two ends
+                for c in range(3):
+                    g = gc[i, c]
+                    if missed[i]:
+                        gc[i, c] = 0.5 * (g + last_g[i, c])
+                    last_g[i, c] = g
+                missed[i] = False
+            else:
+                missed[i] = True
         if kind_id == 0:
             K.complementary_step(
                 q, buf, head, count, gain, srt, scratch, gc, accel[t], dt, fuse[t], fp[0], fp[1], fp[2]
@@ -301,6 +316,8 @@ def run(
             K.mahony_step(q, fbias, gc, accel[t], dt, fuse[t], fp[0], fp[1], fp[2], fp[3], fp[4])
         elif kind_id == 2:
             K.madgwick_step(q, gc, accel[t], dt, fuse[t], fp[0], fp[1], fp[2])
+        elif kind_id == 4:
+            K.inertial_step(q, qg, qc, lp, nobs, gc, accel[t], dt, fuse[t], fp[0], fp[1])
         else:
             K.relative_step(
                 q,

@@ -8,11 +8,13 @@ import dataclasses
 
 from recorder.fusion.base import Filter
 from recorder.fusion.complementary import ComplementaryFilter, ComplementarySettings
+from recorder.fusion.inertial import InertialFilter, InertialSettings
 from recorder.fusion.madgwick import MadgwickFilter, MadgwickSettings
 from recorder.fusion.mahony import MahonyFilter, MahonySettings
 from recorder.fusion.relative import RelativeFilter, RelativeSettings
 
 FILTERS = {
+    "inertial": (InertialFilter, InertialSettings),  # the glove's filter (firmware), low-pass in a non-turning frame
     "complementary": (ComplementaryFilter, ComplementarySettings),  # thesis §3.5, the firmware's filter
     "mahony": (MahonyFilter, MahonySettings),  # Santaera et al. Algorithm 1
     "relative": (RelativeFilter, RelativeSettings),  # Santaera et al. Algorithm 2

@@ -71,8 +71,8 @@ void joint_angles(const Quat rel[kSegments], real out[kJoints]) {
         const int first = 4 * chain;
         // R = Rz(a) Ry(f): R[2,0] = -sin f, R[2,2] = cos f, R[0,1] = -sin a, R[1,1] = cos a
         out[first + (link == 0 ? 0 : link + 1)] =
-            std::atan2(-2 * (r.x * r.z - r.w * r.y), 1 - 2 * (r.x * r.x + r.y * r.y));
-        if (link == 0) out[first + 1] = std::atan2(-2 * (r.x * r.y - r.w * r.z), 1 - 2 * (r.x * r.x + r.z * r.z));
+            atan2_d(-2 * (r.x * r.z - r.w * r.y), 1 - 2 * (r.x * r.x + r.y * r.y));
+        if (link == 0) out[first + 1] = atan2_d(-2 * (r.x * r.y - r.w * r.z), 1 - 2 * (r.x * r.x + r.z * r.z));
     }
 }
 

@@ -28,7 +28,7 @@ void operator delete(void* p, size_t) noexcept { std::free(p); }
 namespace {
 
 struct Capture final : FrameSink {
-    static constexpr size_t kCap = 1 << 22;
+    static constexpr size_t kCap = 1 << 20;  // 1 MiB: the emulated M7 has 4 MiB of RAM
     uint8_t* buf = static_cast<uint8_t*>(std::malloc(kCap));
     size_t n = 0;
     bool accept = true;

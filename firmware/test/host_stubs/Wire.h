@@ -10,8 +10,10 @@ public:
     void setClock(uint32_t hz);
     void beginTransmission(uint8_t address);
     size_t write(uint8_t data);
-    uint8_t endTransmission(bool stop = true);
-    uint8_t requestFrom(uint8_t address, uint8_t count);
+    size_t write(const uint8_t* data, size_t quantity);
+    uint8_t endTransmission(uint8_t sendStop);
+    uint8_t endTransmission();
+    uint8_t requestFrom(uint8_t address, uint8_t quantity);
     int read();
 };
 extern TwoWire Wire;

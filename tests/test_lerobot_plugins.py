@@ -162,7 +162,8 @@ def test_a_missing_glove_and_a_bad_robot_are_one_line(tmp_path):
     with pytest.raises(Exception) as exc:
         teleop.connect()
     assert "no such port" in str(exc.value) and "\n" not in str(exc.value)
-    with pytest.raises(ConfigError, match="unknown robot 'r2d2'; robot hands: glovehand, shadow; motor maps"):
+    hands = ", ".join(envs.robot_names())
+    with pytest.raises(ConfigError, match=f"unknown robot 'r2d2'; robot hands: {hands}; motor maps: hope_jr_hand"):
         GloverecGlove(GloverecGloveConfig(robot="r2d2"))
     with pytest.raises(ValueError, match="unknown robot 'r2d2'"):
         GloverecSim(GloverecSimConfig(robot="r2d2"))

@@ -15,7 +15,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from envs.robots.config import RobotConfig
+from envs.robots.config import RobotConfig, TipSite
 from envs.robots.joint_map import JointMap
 from recorder import quat
 from recorder.config import ConfigError
@@ -76,7 +76,7 @@ class Robot:
         for kind, name in [
             ("body", config.root_body),
             ("body", config.palm_body),
-            *(("site", s) for s in config.fingertips.values()),
+            *(("body", t.body) if isinstance(t, TipSite) else ("site", t) for t in config.fingertips.values()),
         ]:
             if mujoco.mj_name2id(as_written, getattr(mujoco.mjtObj, f"mjOBJ_{kind.upper()}"), name) < 0:
                 raise ConfigError(f"{config.source}: no {kind} named {name!r} in {config.mjcf}")
@@ -92,10 +92,14 @@ class Robot:
         palm_glove = (np.asarray(config.palm_pos, float), _xyaxes_quat(config.palm_xyaxes))
         world_glove = _pose_mul(world_palm, palm_glove)
         self.root_in_palm = _pose_mul(_pose_inv(world_glove), world_root)  # (pos, quat) in the glove palm frame
+        self.fingers = tuple(config.fingertips)  # thumb first; a four-fingered hand has no pinky
+        self.tip_sites = tuple(
+            f"gloverec:{f}_tip" if isinstance(t, TipSite) else t for f, t in config.fingertips.items()
+        )
         self.model = self.spec().compile()
         self.actuator_names = tuple(self.model.actuator(i).name for i in range(self.model.nu))
         self.ctrl_range = self.model.actuator_ctrlrange.copy()
-        self.tip_site_ids = np.array([self.model.site(s).id for s in config.fingertips.values()])
+        self.tip_site_ids = np.array([self.model.site(s).id for s in self.tip_sites])
         self.joint_map = JointMap.compile(config.retarget, self.model, config.source)
 
     def spec(self, floating: bool = False) -> mujoco.MjSpec:
@@ -106,6 +110,9 @@ class Robot:
         root = spec.body(self.config.root_body)
         root.alt.type = mujoco.mjtOrientation.mjORIENTATION_QUAT
         root.pos, root.quat = self.root_in_palm
+        for site, tip in zip(self.tip_sites, self.config.fingertips.values()):
+            if isinstance(tip, TipSite):  # a fingertip the MJCF has no site for
+                spec.body(tip.body).add_site(name=site, pos=list(tip.pos), size=[0.004] * 3, group=3)
         if floating:
             root.add_freejoint(name="base")
             for b in spec.bodies:

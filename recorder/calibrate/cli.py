@@ -1,22 +1,45 @@
-"""`gloverec calibrate`: its flags; the procedure is recorder/calibrate/procedure.py (loaded when it runs)."""
+"""`gloverec calibrate`: its flags; the procedure is recorder/calibrate/procedure.py (loaded when it runs). With
+``--wearer NAME`` it also saves that wearer's hand profile (recorder/hand/profile.py) beside the calibrations:
+measured (``--hand-length``, ``--hand-breadth``), with the finger proportions the pinch step estimates
+(``--pinch``); measurements alone need no glove."""
 
 from __future__ import annotations
 
 import argparse
 import json
 
-from recorder.argtypes import positive_int
+from recorder import GloverecError
+from recorder.argtypes import positive_float, positive_int
 from recorder.paths import CALIBRATION_ENV
 from recorder.view.process import view_arg
 
 
 def add_parser(sub) -> None:
-    c = sub.add_parser("calibrate", help="walk through the calibration steps and save the glove's calibration")
+    c = sub.add_parser(
+        "calibrate", help="walk through the calibration steps and save the glove's calibration (and a hand profile)"
+    )
     c.add_argument(
         "--glove",
-        required=True,
         help="emulator (the emulated wearer runs the steps), serial:PORT, "
-        "a device path, udp:PORT or mcap:FILE (a log of the steps)",
+        "a device path, udp:PORT or mcap:FILE (a log of the steps); not needed to save measurements alone",
+    )
+    c.add_argument("--wearer", metavar="NAME", help="save this wearer's hand profile (record and view --wearer NAME)")
+    c.add_argument(
+        "--hand-length",
+        type=positive_float,
+        metavar="MM",
+        help="the wearer's hand length, wrist crease to the tip of the middle finger (default: kept, else 190)",
+    )
+    c.add_argument(
+        "--hand-breadth",
+        type=positive_float,
+        metavar="MM",
+        help="the wearer's hand breadth across the knuckles, thumb excluded (default: kept, else in proportion)",
+    )
+    c.add_argument(
+        "--pinch",
+        action="store_true",
+        help="add step 5, the thumb tip on each fingertip: estimates the wearer's finger proportions (--wearer)",
     )
     c.add_argument("--glove-id", type=_glove_id, help="hex id to save under (default: the glove's status frame)")
     c.add_argument("--dir", help=f"where calibrations live (default: ${CALIBRATION_ENV}, else datasets/calibration)")
@@ -57,17 +80,46 @@ def _glove_id(text: str) -> int:
 
 
 def cmd_calibrate(args) -> int:
-    from recorder.calibrate.procedure import Calibrator, report, summary  # fusion, the glove: when it runs
+    from recorder.hand.profile import measured_profile, save_profile, segments_from
 
-    result = Calibrator(
-        args.glove,
-        glove_id=args.glove_id,
-        folder=args.dir,
-        config=args.config,
-        interactive=False if args.yes else None,
-        attempts=args.attempts,
-        realtime=args.realtime,
-        view=args.view,
-    ).run()
-    print(json.dumps(summary(result)) if args.json else report(result))
+    measured = args.hand_length is not None or args.hand_breadth is not None
+    if args.glove is None and not (args.wearer and measured):
+        raise GloverecError(
+            "calibrate needs --glove (the glove's calibration), or --wearer NAME with --hand-length MM "
+            "(and --hand-breadth MM) to save a hand profile alone"
+        )
+    if (args.pinch or measured) and not args.wearer:
+        raise GloverecError("--pinch, --hand-length and --hand-breadth describe a wearer's hand: add --wearer NAME")
+    if args.pinch and args.glove is None:
+        raise GloverecError("--pinch is a step of the glove's calibration: add --glove")
+    profile = measured_profile(args.wearer, args.hand_length, args.hand_breadth, args.dir) if args.wearer else None
+    out = {}
+    if args.glove is not None:
+        from recorder.calibrate.procedure import Calibrator, report, summary  # fusion, the glove: when it runs
+
+        result = Calibrator(
+            args.glove,
+            glove_id=args.glove_id,
+            folder=args.dir,
+            config=args.config,
+            interactive=False if args.yes else None,
+            attempts=args.attempts,
+            realtime=args.realtime,
+            view=args.view,
+            pinch=args.pinch,
+            **({"hand_size": profile.size()} if profile is not None else {}),
+        ).run()
+        if result.proportions is not None:
+            profile = segments_from(profile, result.proportions)
+        out = summary(result)
+        text = report(result)
+    if profile is not None:
+        path = save_profile(profile, args.dir)
+        out["hand_profile"] = {**profile.as_dict(), "path": str(path)}
+        line = (
+            f"hand profile of {profile.wearer} saved to {path}: {profile.hand_length_mm:g} x "
+            f"{profile.breadth_mm:.0f} mm ({profile.source})"
+        )
+        text = f"{text}\n{line}" if args.glove is not None else line
+    print(json.dumps(out) if args.json else text)
     return 0

@@ -4,7 +4,9 @@ glove in raw mode and save its GloveCalibration (recorder/hand/calibration.py) u
 Steps, each recorded for a fixed time (recorder/hand/calibration.py STEPS, the emulated wearer's timeline too):
 1. rest flat and still, 3 s (gyro bias, gravity axes; refused and repeated when the hand moved), 2. flex every
 finger and the thumb twice, 3 s (flexion axes), 3. tilt forward, back, left and right, 8 s (accelerometer
-offsets), 4. rest flat again, 2 s (checks: still, back in the same pose).
+offsets), 4. rest flat again, 2 s (checks: still, back in the same pose), and with ``pinch`` 5. flat for 1 s,
+then the thumb tip on the index, middle, ring and little fingertips, 2 s each (fused with the new calibration:
+the wearer's finger proportions, recorder/hand/pinch.py, for their hand profile).
 Interactive (stdin a terminal, a real glove): each step starts at Enter or the glove's button. Otherwise (a
 script, CI, ``--yes``, the emulator) the steps follow each other by the glove's clock.
 """
@@ -29,6 +31,8 @@ from recorder.fusion.session import load_config
 from recorder.glove.config import GloveConfig
 from recorder.glove.glove import open_glove
 from recorder.hand import calibration as cal
+from recorder.hand.kinematics import HandSize
+from recorder.hand.pinch import estimate_proportions
 from recorder.hand.skeleton import JOINT_MAP, N_IMUS, SEGMENTS
 from recorder.paths import calibration_dir
 from recorder.protocol.frames import (
@@ -76,12 +80,19 @@ STEPS = (
     ),
     Step("rest", cal.STEPS["rest"], "Rest the hand flat again, as in step 1 (the reference pose)."),
 )
+PINCH = Step(
+    "pinch",
+    cal.STEPS["pinch"],
+    "Hold the hand flat for a second, then touch the thumb tip to the tip of the index, middle, ring and little "
+    "finger in turn, about 2 s each (there, hold, back).",
+)
 
 
 @dataclass
 class Result:
     calibration: cal.GloveCalibration  # its quality says how it went (attempts, frames per step, checks)
     path: Path
+    proportions: np.ndarray | None = None  # from the pinch step: length factors of the thumb and fingers
 
 
 class Calibrator:
@@ -100,13 +111,19 @@ class Calibrator:
         seed: int = 0,
         out=sys.stderr,
         view: str | None = "none",
+        pinch: bool = False,
+        hand_size: HandSize = HandSize(),
     ):
         """``view``: a live view showing each step on the human hand (recorder/calibrate/view.py; None: the
-        default, native with a display and a terminal)."""
+        default, native with a display and a terminal). ``pinch``: add the pinch step, which estimates the
+        finger proportions of a hand of ``hand_size`` (the wearer's measured length and breadth)."""
         self.glove_config = GloveConfig.parse(glove)
         self.emulated = self.glove_config.kind == "emulator"
+        self.steps = STEPS + ((PINCH,) if pinch else ())
+        self.hand_size = hand_size
+        self.motion = "calibration_pinch" if pinch else "calibration"
         if self.emulated:  # the emulated wearer performs the steps; its glove starts in raw mode
-            self.glove_config = GloveConfig.parse(self.glove_config, mode="raw", motion="calibration", seed=seed)
+            self.glove_config = GloveConfig.parse(self.glove_config, mode="raw", motion=self.motion, seed=seed)
         self.spec = str(self.glove_config)
         self.glove_id = glove_id
         self.folder = calibration_dir(folder)
@@ -130,11 +147,11 @@ class Calibrator:
         self.source = self._open()
         try:
             if self.view_spec != "none":
-                self.view = StepView(self.view_spec, self.spec, self._say)
+                self.view = StepView(self.view_spec, self.spec, self._say, self.hand_size)
             first = self._raw_mode()
             self._pending = first + self._pending
             recs, attempts = {}, 0
-            for k, step in enumerate(STEPS):
+            for k, step in enumerate(self.steps):
                 while True:
                     recs[step.name] = self._step(k, step)
                     if step.name != "still":
@@ -154,14 +171,32 @@ class Calibrator:
         finally:
             self.close()
         calibration = self._compute(recs, attempts)
+        proportions = self._proportions(calibration, recs["pinch"]) if "pinch" in recs else None
         try:
             path = calibration.save(self.folder)
         except OSError as exc:
             raise GloverecError(f"cannot save the calibration in {self.folder}: {exc.strerror or exc}") from None
-        return Result(calibration, path)
+        return Result(calibration, path, proportions)
+
+    def _proportions(self, calibration: cal.GloveCalibration, frames: list) -> np.ndarray:
+        """The finger length factors from the pinch step: fused with the new calibration from its flat first
+        second, the middle of each finger's hold."""
+        fusion = HostFusion(self.config, calibration)
+        t = np.array([(f.t_us - frames[0].t_us) & 0xFFFFFFFF for f in frames]) * 1e-6
+        flat = [f for f, s in zip(frames, t) if MARGIN_S <= s <= cal.PINCH_FLAT_S - MARGIN_S]
+        try:
+            fusion.start(flat)
+        except (ValueError, IndexError):
+            raise GloverecError("the pinch step's first second was too short to start from: repeat it") from None
+        angles = np.array([fusion.process(f).angles for f in frames])
+        pinches = {}
+        for k, finger in enumerate(cal.PINCH_FINGERS):
+            mid = cal.PINCH_FLAT_S + (k + 0.5) * cal.PINCH_EACH_S
+            pinches[finger] = angles[np.abs(t - mid) <= 0.25 * cal.PINCH_EACH_S]
+        return estimate_proportions(pinches, self.hand_size)
 
     def _compute(self, recs: dict, attempts: int) -> cal.GloveCalibration:
-        still, flex, tilt, rest = (_inside(recs[s.name]) for s in STEPS)
+        still, flex, tilt, rest = (_inside(recs[s.name]) for s in STEPS)  # the glove's steps (not the pinch)
         fusion = HostFusion(self.config)
         try:
             calibration = fusion.calibrate(still, flex, tilt, glove_id=self.glove_id)
@@ -183,7 +218,7 @@ class Calibrator:
                 # direction is from step 1's in step 4 (the hand back in the reference pose: a few degrees at most)
                 "rest_bias_change_dps": float(np.degrees(np.max(np.linalg.norm(g4.mean(0) - g1.mean(0), axis=1)))),
                 "rest_pose_change_deg": float(np.degrees(np.max(np.arccos(np.clip(np.sum(up1 * up4, 1), -1, 1))))),
-                "frames": {s.name: len(recs[s.name]) for s in STEPS},
+                "frames": {s.name: len(recs[s.name]) for s in self.steps},
             }
         )
         return calibration
@@ -192,7 +227,7 @@ class Calibrator:
     def _open(self):
         # a device runs in real time whatever we do; a log plays back as fast as it is read
         fast = not self.realtime if self.emulated else True
-        self.glove = open_glove(self.glove_config, fast=fast, motion="calibration")
+        self.glove = open_glove(self.glove_config, fast=fast, motion=self.motion)
         return self.glove.source
 
     def close(self) -> None:
@@ -259,7 +294,7 @@ class Calibrator:
     # ------------------------------------------------------------ one step
     def _step(self, k: int, step: Step) -> list:
         self._k, self._current = k, step
-        self._say(f"step {k + 1}/{len(STEPS)}, {step.seconds:g} s: {step.text}")
+        self._say(f"step {k + 1}/{len(self.steps)}, {step.seconds:g} s: {step.text}")
         if self.interactive:
             self._wait_for_go()
         frames = []
@@ -315,7 +350,7 @@ class Calibrator:
         """Show the step in the live view, if any; its requests: "next" (returned), "stop" (ends the run)."""
         if self.view is None:
             return None
-        self.view.show(k, len(STEPS), step, seconds, waiting)
+        self.view.show(k, len(self.steps), step, seconds, waiting)
         what = self.view.take()
         if what == "stop":
             raise GloverecError("calibration stopped from the view; nothing saved")

@@ -11,7 +11,8 @@ import time
 import numpy as np
 
 import envs
-from recorder.emulator.procedure import PHASES, ProcedureMotion
+from recorder.emulator.procedure import ProcedureMotion
+from recorder.hand.kinematics import HandSize
 from recorder.hand.pose import HandPose
 from recorder.view.process import default_view, open_view
 from recorder.view.scene import frame_of, layout_of
@@ -20,7 +21,7 @@ SHOW_HZ = 30.0
 
 
 class StepView:
-    def __init__(self, view: str | None, glove: str, say):
+    def __init__(self, view: str | None, glove: str, say, hand_size: HandSize = HandSize()):
         if view is None:
             view, hint = default_view()
             if hint:
@@ -31,10 +32,10 @@ class StepView:
         self._lock = threading.Lock()
         self._requests: list[str] = []
         self.view = open_view(view, "pose", "glovehand", layout_of(self.env), hide_robot=True,
-                              on_event=self._request, say=say)  # fmt: skip
+                              on_event=self._request, say=say, hand_size=hand_size)  # fmt: skip
         if self.view is not None:
             self.view.wait_ready()
-        self.demo = ProcedureMotion("gestures", 0, 200.0)
+        self.demo = ProcedureMotion("gestures", 0, 200.0, pinch=True, size=hand_size)
         self._last = 0.0
 
     def show(self, k: int, steps: int, step, seconds: float, waiting: bool = False) -> None:
@@ -43,7 +44,7 @@ class StepView:
         if self.view is None or now - self._last < 1.0 / SHOW_HZ:
             return
         self._last = now
-        start, end = PHASES[step.name]
+        start, end = self.demo.phases[step.name]
         t = start + (seconds % (end - start))
         m = self.demo.at(np.array([t]))
         pose = HandPose(m.angles[0], m.palm_quat[0], np.ones(len(m.angles[0]), bool))

@@ -2,7 +2,9 @@
 human reaction time, close into a power grasp sized for the object (minimum jerk), and keep squeezing.
 
 The grasp posture aims a little past contact (the object stops the fingers), so the position servos press
-on it; smaller objects get a tighter target. Varies timing, speed and posture between demos."""
+on it; smaller objects get a tighter target. The operator sizes the grasp by what the robot's hand needs: an
+object looks as large to them as it is against the robot's hand (its fingertip scale, ``retarget.tips``), so a
+hand bigger than theirs gets a tighter grasp. Varies timing, speed and posture between demos."""
 
 from __future__ import annotations
 
@@ -67,7 +69,7 @@ class GraspDemonstrator:
         c = self.config
         rng = np.random.default_rng(seed)
         sched = env.schedule
-        size = 2.0 * float(np.mean(env.object_half[:2]))
+        size = 2.0 * float(np.mean(env.object_half[:2])) / env.robot.config.retarget.tips.scale
         noise = np.clip(rng.normal(0, 1, len(JOINTS)), -2, 2) * np.radians(c.pose_noise_deg)
         grasp = power_grasp(size) + noise
         start = GESTURES["open"]

@@ -1,6 +1,6 @@
 """Run scripted demonstrations through retargeting into an environment and score them.
 
-    python -m recorder.demonstrator.rollout --task grasp --robot shadow --episodes 50 [--via glove] [--mode ik]
+    python -m recorder.demonstrator.rollout --task grasp --robot shadow --episodes 50 [--via glove] [--mode ik|pinch]
 
 ``via="direct"``: the demonstrator's joint angles and palm orientation go straight to the retargeter.
 ``via="glove"``: they drive a SyntheticGlove; its pose output (parent-relative quaternions with orientation
@@ -20,7 +20,7 @@ import envs  # noqa: F401  (registers the environments)
 from recorder.demonstrator import make_demonstrator
 from recorder.emulator.glove import SyntheticGlove
 from recorder.hand.kinematics import joint_angles_from_relative
-from recorder.retarget import Retargeter
+from recorder.retarget import MODES, Retargeter
 
 
 class _GloveReader:
@@ -117,7 +117,7 @@ def main(argv=None) -> None:
     p.add_argument("--robot", default="glovehand")
     p.add_argument("--episodes", type=int, default=20)
     p.add_argument("--via", choices=("direct", "glove"), default="direct")
-    p.add_argument("--mode", choices=("joint", "ik"), default="joint")
+    p.add_argument("--mode", choices=MODES, default="joint")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--brief", action="store_true", help="leave out the per-episode runs")
     args = p.parse_args(argv)

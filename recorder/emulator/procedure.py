@@ -6,6 +6,9 @@ Timeline (seconds): 0-3 still, flat (step 1); 3-6 two flexions of every finger a
 (step 2); 6-14 tilts of the hand: forward, back, left, right by 45 degrees, each held 0.8 s (step 3); 14-16 flat
 and still again (the reference pose, where fusion starts); 16-17 blend into the motion, which starts at 17.
 Plug it into a SyntheticGlove: ``glove.motion = ProcedureMotion(kind, seed, rate)``.
+With ``pinch`` (`gloverec calibrate --pinch`) the optional pinch step follows the rest, 16-25 s: flat and still
+for 1 s, then the thumb tip to the index, middle, ring and little fingertips in turn, 2 s each (0.6 s there,
+0.8 s held, 0.6 s back), for a hand of ``size``; the motion then starts 9 s later (``start``).
 """
 
 from __future__ import annotations
@@ -14,9 +17,10 @@ import numpy as np
 
 from recorder import quat
 from recorder.emulator.glove import SyntheticGlove
-from recorder.hand.calibration import STEPS
-from recorder.hand.kinematics import JOINTS, N_JOINTS, interpolate_dip
+from recorder.hand.calibration import PINCH_EACH_S, PINCH_FINGERS, PINCH_FLAT_S, STEPS
+from recorder.hand.kinematics import JOINTS, N_JOINTS, HandSize, interpolate_dip
 from recorder.hand.motion import Motion, MotionBlock, SampledMotion, min_jerk
+from recorder.hand.pinch import pinch_pose
 
 HOLD, FLEX, TILT, REST, BLEND = STEPS["still"], STEPS["flex"], STEPS["tilt"], STEPS["rest"], 1.0
 TILTS_DEG = ((0, 0, 0), (0, 45, 0), (0, -45, 0), (45, 0, 0), (-45, 0, 0), (0, 0, 0))  # palm rotation vectors
@@ -36,13 +40,47 @@ FLEXED = tuple(
 
 
 class ProcedureMotion(SampledMotion):
-    def __init__(self, kind: str = "gestures", seed: int = 0, rate_hz: float = 200.0, flex_deg: float = 60.0):
+    def __init__(
+        self,
+        kind: str = "gestures",
+        seed: int = 0,
+        rate_hz: float = 200.0,
+        flex_deg: float = 60.0,
+        pinch: bool = False,
+        size: HandSize = HandSize(),
+    ):
         super().__init__(rate_hz)
         self.motion = Motion(kind, seed=seed, rate_hz=rate_hz)
         self.flex = np.radians(flex_deg)
+        self.pinch = pinch
+        self.pinch_at = START - BLEND  # the pinch step's start
+        self.start = START + (STEPS["pinch"] if pinch else 0.0)  # the motion's t = 0
+        self._pinches = [pinch_pose(f, size) for f in PINCH_FINGERS] if pinch else []
+        self.phases = dict(PHASES, **({"pinch": (self.pinch_at, self.pinch_at + STEPS["pinch"])} if pinch else {}))
 
     def at(self, t) -> MotionBlock:
         t = np.asarray(t, float)
+        if not self.pinch:
+            return self._procedure(t)
+        out = self._procedure(np.where(t < self.pinch_at, t, np.where(t < self.start - BLEND, 0.0, t - STEPS["pinch"])))
+        during = (t >= self.pinch_at) & (t < self.start - BLEND)
+        if during.any():
+            out.angles[during] = self._pinch_angles(t[during] - self.pinch_at)
+            out.palm_quat[during] = quat.IDENTITY
+            out.palm_pos[during] = 0.0
+        return MotionBlock(t, out.angles, out.palm_quat, out.palm_pos)
+
+    def _pinch_angles(self, s: np.ndarray) -> np.ndarray:
+        """The pinch step's angles at ``s`` seconds into it: flat, then each finger's pinch in turn."""
+        k = np.clip(((s - PINCH_FLAT_S) // PINCH_EACH_S).astype(int), 0, len(PINCH_FINGERS) - 1)
+        u = np.where(s < PINCH_FLAT_S, -1.0, s - PINCH_FLAT_S - k * PINCH_EACH_S)
+        go, hold = 0.3 * PINCH_EACH_S, 0.4 * PINCH_EACH_S
+        amount = np.where(u < 0, 0.0, np.where(u < go, min_jerk(u / go), 1.0 - min_jerk((u - go - hold) / go)))
+        amount = np.clip(amount, 0.0, 1.0)
+        targets = np.array(self._pinches)[k]
+        return interpolate_dip(amount[:, None] * targets)
+
+    def _procedure(self, t: np.ndarray) -> MotionBlock:
         n = len(t)
         angles = np.zeros((n, N_JOINTS))
         s = np.clip((t - HOLD) / FLEX, 0.0, 1.0)

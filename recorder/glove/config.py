@@ -17,7 +17,7 @@ from recorder.config import STRICT, ConfigError, setting
 KINDS = ("emulator", "serial", "udp", "mcap")
 SPECS = "emulator, serial:PORT (or a device path), udp:PORT, udp:HOST:PORT or mcap:FILE"
 EMULATOR_MODES = ("pose", "raw", "compact", "json")
-EMULATOR_MOTIONS = ("gestures", "random", "demonstrations", "calibration")
+EMULATOR_MOTIONS = ("gestures", "random", "demonstrations", "calibration", "calibration_pinch")
 PROTOCOLS = ("auto", "binary", "json")
 
 
@@ -25,8 +25,8 @@ PROTOCOLS = ("auto", "binary", "json")
 class GloveConfig:
     """A glove. ``address``: the device path (serial), HOST:PORT (udp) or the log file (mcap). The emulator's
     ``rate_hz``, output ``mode`` and ``motion``: the wearer moves between ``gestures``, moves ``random``ly,
-    performs the scripted ``demonstrations`` of the task being recorded, or the ``calibration`` steps (None:
-    what the command needs). ``seed`` seeds the emulated motion."""
+    performs the scripted ``demonstrations`` of the task being recorded, or the ``calibration`` steps (with the
+    pinch step: ``calibration_pinch``; None: what the command needs). ``seed`` seeds the emulated motion."""
 
     __pydantic_config__ = STRICT
 
@@ -38,7 +38,7 @@ class GloveConfig:
     mode: Literal["pose", "raw", "compact", "json"] = setting(
         "pose", "the emulator's output: fused poses, raw IMU frames (fused on the host), compact poses, legacy JSON"
     )
-    motion: Literal["gestures", "random", "demonstrations", "calibration"] | None = None
+    motion: Literal["gestures", "random", "demonstrations", "calibration", "calibration_pinch"] | None = None
     seed: int = 0
 
     def __post_init__(self):

@@ -109,12 +109,13 @@ class Glove:
             motion = self._motion
             # the emulated wearer rests in the session's first pose (where fusion starts), not the flat hand
             rest = interpolate_dip(self.session.keyframe_angles([0.0]))[0]
-        elif self.motion == "calibration":
-            motion, rest = ProcedureMotion("gestures", config.seed, config.rate_hz), None
+        elif self.motion in ("calibration", "calibration_pinch"):
+            pinch = self.motion == "calibration_pinch"
+            motion, rest = ProcedureMotion("gestures", config.seed, config.rate_hz, pinch=pinch), None
         else:
             motion, rest = self.motion, None
         self.emulator = Emulator(config.rate_hz, config.mode, motion, seed=config.seed)
-        if self.motion != "calibration":  # calibrating reads the raw frames: nothing to fuse (or to load) yet
+        if self.motion not in ("calibration", "calibration_pinch"):  # calibrating reads raw frames: nothing to fuse
             self.fusion.expect(self.emulator.glove_id, raw=config.mode == "raw", rest_angles=rest)
         self.emulator.realtime = not self.fast  # before plug(): its first status frame states the clock
         try:

@@ -27,7 +27,12 @@ VERSION = 1
 # The procedure's steps and how long each is recorded (s): `gloverec calibrate` walks the user through them,
 # and the emulated wearer (recorder/emulator/procedure.py) performs them on the same clock. 4: rest flat again
 # (the reference pose), a check that the hand is back where step 1 left it.
-STEPS = {"still": 3.0, "flex": 3.0, "tilt": 8.0, "rest": 2.0}
+STEPS = {"still": 3.0, "flex": 3.0, "tilt": 8.0, "rest": 2.0, "pinch": 9.0}
+# The optional pinch step (`gloverec calibrate --pinch`, recorder/hand/pinch.py): the hand flat and still for
+# PINCH_FLAT_S (host fusion starts from it), then the thumb tip on each fingertip in turn, PINCH_EACH_S each.
+PINCH_FINGERS = ("index", "middle", "ring", "pinky")
+PINCH_FLAT_S = 1.0
+PINCH_EACH_S = 2.0
 _Y = np.array([0.0, 1.0, 0.0])
 _UP = np.array([0.0, 0.0, 1.0])
 

@@ -99,18 +99,28 @@ _BASES_MM = (
 )
 
 
+REFERENCE_LENGTH_MM = 190.0  # the hand every robot's retargeting is fitted to (HandSize())
+REFERENCE_BREADTH_MM = 85.0  # its breadth across the metacarpal heads (adult mean, about 0.45 of the length)
+
+
 @dataclass(frozen=True)
 class HandSize:
-    """An adult right hand, hand_length_mm (wrist crease to middle fingertip) times ``scale``.
+    """An adult right hand: hand_length_mm (wrist crease to middle fingertip) and hand_breadth_mm (across the
+    metacarpal heads), both times ``scale``.
 
-    Bone lengths follow Buchholz et al. 1992 proportions; bases_mm are the chain bases of a 190 mm hand in
-    the palm frame, scaled with the hand. Thicknesses place the IMUs on the back of the segments."""
+    Bone lengths follow Buchholz et al. 1992 proportions of the length unless ``segments_mm`` gives a finger's
+    own ((finger, (three bone lengths in mm, base to tip; the thumb's metacarpal, proximal, distal)), ...).
+    bases_mm are the chain bases of the 190 mm reference hand in the palm frame: along the hand (x) and
+    through it (z) they scale with the length, across it (y) with the breadth. Thicknesses place the IMUs on
+    the back of the segments. A wearer's HandSize comes from their hand profile (recorder/hand/profile.py)."""
 
     scale: float = 1.0
-    hand_length_mm: float = 190.0
+    hand_length_mm: float = REFERENCE_LENGTH_MM
     palm_thickness_mm: float = 30.0
     finger_thickness_mm: float = 14.0
     bases_mm: tuple = _BASES_MM  # chain bases for a 190 mm hand, thumb first
+    hand_breadth_mm: float = REFERENCE_BREADTH_MM
+    segments_mm: tuple = ()  # ((finger, (l1, l2, l3)), ...): measured bone lengths overriding Buchholz
 
     def lengths(self) -> np.ndarray:
         """Bone length of every segment in metres (16,); the palm's is its wrist-to-MCP length (middle)."""
@@ -121,11 +131,19 @@ class HandSize:
             m, p, i, d = _BUCHHOLZ[f]
             out[list(FINGER_SEGMENTS[f])] = (m, p, d) if f == "thumb" else (p, i, d)
         out[1:] *= hl
+        for f, bones in self.segments_mm:
+            out[list(FINGER_SEGMENTS[f])] = np.asarray(bones, float) * self.scale / 1000.0
         return out
 
     def bases(self) -> np.ndarray:
         """Chain base positions (5, 3) in metres, palm frame: thumb CMC, index..pinky MCP."""
-        return np.array(self.bases_mm) * (self.scale * self.hand_length_mm / 190.0) / 1000.0
+        return np.array(self.bases_mm) * self.axes() / 1000.0
+
+    def axes(self) -> np.ndarray:
+        """This hand's size along the palm frame's axes (3,) relative to the reference hand: x and z by the
+        length, y by the breadth."""
+        k = self.scale * self.hand_length_mm / REFERENCE_LENGTH_MM
+        return np.array([k, self.scale * self.hand_breadth_mm / REFERENCE_BREADTH_MM, k])
 
 
 def clip(angles) -> np.ndarray:

@@ -9,7 +9,7 @@ import json
 from recorder import GloverecError, config
 from recorder.record.config import RecordConfig
 
-RERECORD_FIELDS = ("repo_id", "root", "robot", "task", "fps", "retarget", "cameras")
+RERECORD_FIELDS = ("repo_id", "root", "robot", "task", "fps", "retarget", "cameras", "wearer")
 
 
 def add_parsers(sub) -> None:
@@ -21,10 +21,14 @@ def add_parsers(sub) -> None:
 
 
 def run_record(args: argparse.Namespace) -> int:
-    from recorder.record.recorder import record  # loads lerobot, torch and mujoco: not at start-up
+    from recorder.hand.profile import wearer_profile
 
     cfg = RecordConfig.load(args.config, **config.overrides(args, RecordConfig))
-    summary = record(cfg)
+    profile = wearer_profile(cfg.wearer)  # a missing or impossible profile: one line, before the heavy imports
+
+    from recorder.record.recorder import record  # loads lerobot, torch and mujoco: not at start-up
+
+    summary = record(cfg, profile)
     if args.json:
         print(json.dumps(summary))
     else:
@@ -46,6 +50,7 @@ def add_rerecord_parser(sub) -> None:
 
 
 def run_rerecord(args: argparse.Namespace) -> int:
+    from recorder.hand.profile import profile_from_dict
     from recorder.log.playback import read_log  # with the recorder: not at start-up
     from recorder.record.recorder import Recorder  # lerobot, torch and mujoco
 
@@ -72,7 +77,14 @@ def run_rerecord(args: argparse.Namespace) -> int:
         log=False,
         view="none",
     )
-    summary = Recorder(cfg, plan=plan).run()
+    logged = session.get("hand_profile")  # the wearer's hand as recorded, unless --wearer names another
+    profile = None
+    if logged and cfg.wearer is None:
+        try:
+            profile = profile_from_dict(json.loads(logged), f"{args.log_file}: hand_profile")
+        except json.JSONDecodeError:
+            raise GloverecError(f"{args.log_file}: its hand_profile is not JSON") from None
+    summary = Recorder(cfg, plan=plan, profile=profile).run()
     summary["source_log"] = args.log_file
     saved = f"re-recorded {summary['episodes_saved']} of {len(plan)} episode(s) from {args.log_file}"
     print(json.dumps(summary) if args.json else f"{saved} into {summary['root']}")

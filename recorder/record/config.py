@@ -45,7 +45,7 @@ class RecordConfig:
         metavar="GLOVE",
         flags={"rate_hz": "--glove-rate", "mode": "--glove-mode"},
     )
-    robot: str = setting("glovehand", "a robot of configs/robots/ (glovehand, shadow)")
+    robot: str = setting("glovehand", "a robot of configs/robots/ (glovehand, shadow, leap)")
     task: str = setting("pose", "pose or grasp")
     fps: Annotated[int, Positive] = setting(30, "dataset frames per second (the environment's control rate)")
     episodes: Annotated[int, Positive] = setting(10, "episodes to save")
@@ -69,7 +69,14 @@ class RecordConfig:
         negation="--fast",
         negation_help="as fast as the glove delivers (default for the emulator and logs)",
     )
-    retarget: Literal["joint", "ik"] = setting("joint", "retargeting mode")
+    retarget: Literal["joint", "ik", "pinch"] = setting(
+        "joint", "retargeting mode: joint map, fingertip IK, or pinch-preserving (fingertips, pinches, no overlap)"
+    )
+    wearer: str | None = setting(
+        None,
+        "whose hand: the hand profile saved by `gloverec calibrate --wearer NAME` (default: a 190 mm hand)",
+        metavar="NAME",
+    )
     seed: int = setting(0, "episode k of a session resets the environment with seed + k")
     log: bool = setting(True, "no raw MCAP log of the session beside the dataset", flag="--no-log")
     task_text: str | None = setting(None, "the task string stored with every frame (default: the task's)")

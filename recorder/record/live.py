@@ -22,8 +22,9 @@ STATUS_S = 0.25
 
 
 class LiveView:
-    def __init__(self, view: str | None, cfg, env, glove, control, root, say):
-        """``view``: a view spec, None for the default (native with a display and a terminal, else none, said)."""
+    def __init__(self, view: str | None, cfg, env, glove, control, root, say, hand_size=None):
+        """``view``: a view spec, None for the default (native with a display and a terminal, else none, said).
+        ``hand_size``: the wearer's, for the human hand the view draws."""
         if view is None:
             view, hint = default_view()
             if hint:
@@ -34,7 +35,8 @@ class LiveView:
             spec = ViewSpec("rerun", mode="save", target=str(root / "logs" / time.strftime("view-%Y%m%d-%H%M%S.rrd")))
         self.env, self.glove, self.cfg = env, glove, cfg
         options = {"control_hz": float(cfg.fps), "episode_s": float(env.config.episode_s)}
-        self.view = open_view(spec, cfg.task, cfg.robot, layout_of(env), options, on_event=control.request, say=say)
+        self.view = open_view(spec, cfg.task, cfg.robot, layout_of(env), options, on_event=control.request, say=say,
+                              hand_size=hand_size)  # fmt: skip
         if self.view is not None:
             self.view.wait_ready()
         self.saved, self.successes = 0, 0

@@ -13,10 +13,12 @@ either side of the frame time has usually arrived; faster than real time it tick
 from __future__ import annotations
 
 import gc
+import json
 import sys
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -24,6 +26,7 @@ import envs
 from recorder import GloverecError
 from recorder.demonstrator import make_demonstrator
 from recorder.glove.glove import Glove, make_glove
+from recorder.hand.profile import HandProfile, wearer_profile
 from recorder.log.writer import McapLogger
 from recorder.record.config import RecordConfig
 from recorder.record.control import NEXT, RERECORD, STOP, Control
@@ -84,10 +87,19 @@ def _no_gc_pauses(enabled: bool):
 
 
 class Recorder:
-    def __init__(self, cfg: RecordConfig, control: Control | None = None, out=sys.stderr, plan=None):
+    def __init__(
+        self,
+        cfg: RecordConfig,
+        control: Control | None = None,
+        out=sys.stderr,
+        plan=None,
+        profile: HandProfile | None = None,
+    ):
         """``plan``: (seed, device_start_s, frames) per episode, to re-record a log's episodes exactly
-        (`gloverec rerecord`); episodes then start at those device times instead of at buttons or keys."""
+        (`gloverec rerecord`); episodes then start at those device times instead of at buttons or keys.
+        ``profile``: the wearer's hand (default: ``cfg.wearer``'s saved profile, or the reference hand)."""
         self.cfg = cfg
+        self.profile = profile if profile is not None else wearer_profile(cfg.wearer)  # missing: one line, first
         self.plan = list(plan) if plan is not None else None
         self.fast = cfg.is_fast
         self.out = out
@@ -104,7 +116,9 @@ class Recorder:
         except ValueError as exc:
             raise GloverecError(str(exc)) from None
         self.u = self.env.unwrapped
-        self.retarget = Retargeter(cfg.robot, cfg.retarget, base_rotation=self.u.config.base_rotation)
+        self.retarget = Retargeter(
+            cfg.robot, cfg.retarget, base_rotation=self.u.config.base_rotation, hand_size=self.profile.size()
+        )
         glove = cfg.glove_config
         scripted = glove.kind == "emulator" and (glove.motion or "demonstrations") == "demonstrations"
         self.demonstrator = make_demonstrator(cfg.task) if scripted else None
@@ -130,13 +144,16 @@ class Recorder:
         cfg = self.cfg
         self.glove = make_glove(cfg.glove_config, fast=self.fast, motion="demonstrations")
         self.glove.fusion.keep_in(self.store.work, self._say)  # meta/gloverec/calibration.json, before any episode
+        write_profile(self.store.work, self.profile)  # meta/gloverec/hand_profile.json: whose hand it was
         self.logger = None
         self.log_rel = None
         if cfg.log:
             self._open_log()
         self.control = control if control is not None else Control()
         self.control.on_reset(self.glove.reset_pose)  # the reset key re-takes host fusion's reference pose
-        self.live = LiveView(cfg.view, cfg, self.u, self.glove, self.control, self.store.work, self._say)
+        self.live = LiveView(
+            cfg.view, cfg, self.u, self.glove, self.control, self.store.work, self._say, self.profile.size()
+        )
         self.period = 1.0 / cfg.fps
         self.delay_s = 0.0  # real time: set per episode from the glove's measured sample interval
         self._last_line = 0.0
@@ -153,6 +170,7 @@ class Recorder:
                 "robot": self.cfg.robot,
                 "task": self.cfg.task,
                 "fps": str(self.cfg.fps),
+                "hand_profile": json.dumps(self.profile.as_dict()),
             },
             calibration=self.glove.fusion.record,
         )
@@ -377,6 +395,8 @@ class Recorder:
             "glove": g.name,
             "realtime": not self.fast,
             "retarget": cfg.retarget,
+            "wearer": self.profile.wearer,
+            "hand_length_mm": self.profile.hand_length_mm,
             "start_glove_time_s": start,
             "start_device_time_s": device_start,
             **stats.summary(decode, src.stats().queue_drops),
@@ -453,5 +473,18 @@ def _log_range(logger, start: float, g: Glove, frames: int, period: float) -> di
     return {"start_ns": int(start * 1e9) + off, "end_ns": int((start + frames * period) * 1e9) + off}
 
 
-def record(cfg: RecordConfig) -> dict:
-    return Recorder(cfg).run()
+PROFILE_FILE = Path("meta") / "gloverec" / "hand_profile.json"  # beside the glove's calibration.json
+
+
+def write_profile(folder, profile: HandProfile) -> Path:
+    """The wearer's hand profile into a dataset's metadata (atomically)."""
+    path = Path(folder) / PROFILE_FILE
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(profile.as_dict(), indent=1) + "\n")
+    tmp.replace(path)
+    return path
+
+
+def record(cfg: RecordConfig, profile: HandProfile | None = None) -> dict:
+    return Recorder(cfg, profile=profile).run()

@@ -12,7 +12,12 @@ def add_parser(subparsers):
     v.add_argument("--glove", required=True, help=SPECS)
     v.add_argument("--robot", default="glovehand", help="a robot of configs/robots/ (default: glovehand)")
     v.add_argument("--task", default="pose", help="pose or grasp (default: pose)")
-    v.add_argument("--mode", default="joint", choices=("joint", "ik"), help="retargeting mode")
+    v.add_argument("--mode", default="joint", choices=("joint", "ik", "pinch"), help="retargeting mode")
+    v.add_argument(
+        "--wearer",
+        metavar="NAME",
+        help="whose hand: the profile saved by `gloverec calibrate --wearer NAME` (default: a 190 mm hand)",
+    )
     v.add_argument(
         "--view",
         type=view_arg,

@@ -2,13 +2,16 @@
 native, web or rerun) or rendered to a video.
 
     gloverec view --glove emulator|serial:PORT|udp:PORT|mcap:FILE --robot NAME [--task pose|grasp]
-                  [--mode joint|ik] [--view native|web[:PORT]|rerun[:MODE]] [--video FILE.mp4] [--duration S]
+                  [--mode joint|ik|pinch] [--wearer NAME] [--view native|web[:PORT]|rerun[:MODE]] [--video FILE.mp4]
+                  [--duration S]
 
 The glove's newest HandPose (any glove: pose, compact, or raw frames fused on the host) is retargeted and steps
 the task at its control rate. The view shows what `gloverec record` shows: the scene, the target gesture as a
 ghost, the human hand, the glove's health; its "next" key starts a new scene, "zero" re-takes the reference pose,
-"stop" ends. A video (MUJOCO_GL=egl, headless) has the ghost and the human hand too. ``--glove emulator`` runs
-the glove emulator on a pseudo-terminal in this process and reads it through the real serial path.
+"stop" ends. A video (MUJOCO_GL=egl, headless) has the ghost and the human hand too. ``--wearer NAME``: that
+wearer's hand profile (recorder/hand/profile.py), which retargeting and the drawn human hand use.
+``--glove emulator`` runs the glove emulator on a pseudo-terminal in this process and reads it through the real
+serial path.
 
 The command's flags: recorder/view/cli.py.
 """
@@ -25,6 +28,7 @@ from envs.tasks import make_task
 from recorder import GloverecError
 from recorder.glove.config import GloveConfig
 from recorder.glove.glove import open_glove
+from recorder.hand.profile import wearer_profile
 from recorder.retarget import Retargeter
 from recorder.view.process import ViewSpec, default_view, open_view
 from recorder.view.scene import Stage, frame_of, free_camera, layout_of
@@ -43,10 +47,11 @@ def run(args) -> int:
     duration = args.duration
     if duration is None and args.video and args.glove == "emulator":
         duration = 10.0
+    size = wearer_profile(args.wearer).size()  # a missing or impossible profile: one line, before anything opens
     overrides = {"episode_s": 1e9, "terminate_on_success": False} if args.task == "pose" else {}
     env = make_task(args.task, args.robot, **overrides)
     u = env.unwrapped
-    retarget = Retargeter(u.robot, args.mode, base_rotation=u.config.base_rotation)
+    retarget = Retargeter(u.robot, args.mode, base_rotation=u.config.base_rotation, hand_size=size)
     requests: list[str] = []
     lock = threading.Lock()
 
@@ -56,7 +61,8 @@ def run(args) -> int:
 
     shown = None
     if view is not None and ViewSpec.parse(view).kind != "none":
-        shown = open_view(view, args.task, args.robot, layout_of(u), overrides, on_event=request, say=print)
+        shown = open_view(view, args.task, args.robot, layout_of(u), overrides, on_event=request, say=print,
+                          hand_size=size)  # fmt: skip
         shown.wait_ready()
     glove = open_glove(GloveConfig.parse(args.glove), motion="gestures")
     try:
@@ -90,7 +96,8 @@ class _Session:
         writer = stage = renderer = None
         if video:
             writer = imageio.get_writer(video, fps=rate, codec="libx264", quality=7, macro_block_size=8)
-            stage = Stage(self.args.task, self.args.robot, {"episode_s": 1e9} if self.args.task == "pose" else {})
+            options = {"episode_s": 1e9} if self.args.task == "pose" else {}
+            stage = Stage(self.args.task, self.args.robot, options, hand_size=self.retarget.hand_size)
             renderer = mujoco.Renderer(stage.model, *VIDEO_SIZE)
             camera, opt = free_camera(stage), mujoco.MjvOption()
         steps, start = 0, time.monotonic()

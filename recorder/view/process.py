@@ -158,13 +158,16 @@ class View:
 
 
 def open_view(spec: ViewSpec | str, task: str, robot: str, layout: Layout, options: dict | None = None,
-              hide_robot: bool = False, on_event=None, say=None) -> View | None:  # fmt: skip
-    """The view ``spec`` names for a scene of ``task`` on ``robot`` (None for ``none``); checked first."""
+              hide_robot: bool = False, on_event=None, say=None, hand_size=None) -> View | None:  # fmt: skip
+    """The view ``spec`` names for a scene of ``task`` on ``robot`` (None for ``none``); checked first.
+    ``hand_size``: the wearer's HandSize, for the human hand (default: the reference hand)."""
     spec = spec if isinstance(spec, ViewSpec) else ViewSpec.parse(spec)
     if spec.kind == "none":
         return None
     check(spec)
     stage = {"task": task, "robot": robot, "options": dict(options or {}), "hide_robot": hide_robot}
+    if hand_size is not None:
+        stage["hand_size"] = hand_size
     return View(spec, stage, layout, on_event, say)
 
 

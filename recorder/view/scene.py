@@ -22,9 +22,17 @@ BONE_RADIUS = 0.006
 
 class Stage:
     """The view's own copy of the task: the same model as the recording's environment (its task, robot and
-    options, without cameras), its data set from each ViewFrame. ``hide_robot``: only the human hand (calibration)."""
+    options, without cameras), its data set from each ViewFrame. ``hide_robot``: only the human hand (calibration).
+    ``hand_size``: the wearer's hand (their profile), which the human hand is drawn at."""
 
-    def __init__(self, task: str, robot: str, options: dict | None = None, hide_robot: bool = False):
+    def __init__(
+        self,
+        task: str,
+        robot: str,
+        options: dict | None = None,
+        hide_robot: bool = False,
+        hand_size: HandSize = HandSize(),
+    ):
         opts = {k: v for k, v in (options or {}).items() if k not in ("cameras", "image_size")}
         self.env = envs.make(task, robot, **opts).unwrapped
         self.env.reset(seed=0)
@@ -34,7 +42,7 @@ class Stage:
         if hide_robot:
             self.model.geom_rgba[list(self.robot_geoms), 3] = 0.0
         self.workspace = np.array(self.env.workspace, float)
-        self.size = HandSize()
+        self.size = hand_size
         self.show_ghost = hasattr(self.env, "goal_qpos")
         self.show_hand = True
         self.seed = 0

@@ -38,6 +38,15 @@ def test_the_demonstrator_succeeds_on_leap(task, seeds, need):
     assert ok >= need, f"{ok}/{len(seeds)}"
 
 
+def test_leaps_fist_goal_is_the_one_its_colliding_fingers_reach_from_the_open_hand():
+    # LEAP's joint-mapped fist drives the thumb into the index finger: which stops the other depends on the path
+    env = envs.make("pose", "leap")
+    r = Retargeter("leap", "joint", base_rotation=env.unwrapped.config.base_rotation)
+    runs = [run_episode(env, r, seed) for seed in (11, 14, 27)]
+    env.close()
+    assert {x["goal"] for x in runs} == {"fist"} and all(x["success"] for x in runs), runs
+
+
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory):
     base = tmp_path_factory.mktemp("leap")

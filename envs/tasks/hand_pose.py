@@ -1,9 +1,11 @@
 """HandPose: reach a target gesture and hold it.
 
 Each episode draws a gesture (recorder.hand.gestures.GESTURES); its goal, in ``observation.environment_state``,
-is where the robot's actuated joints come to rest when commanded the gesture's joint-mapped targets (the
-robot's joint map, envs/robots/joint_map.py), found once per gesture by simulation: a gesture whose fingers collide (the
-thumb on a curled finger) so gets a goal the robot can actually reach. Success: every actuated joint within
+is where the robot's actuated joints come to rest when its joint-mapped targets (the robot's joint map,
+envs/robots/joint_map.py) move from the open hand to the gesture's in a minimum-jerk reach, as a wearer's would,
+and then hold; found once per gesture by simulation: a gesture whose fingers collide (the thumb on a curled
+finger) so gets a goal the robot can actually reach, and the one it reaches from where episodes start (where
+colliding fingers come to rest depends on which arrives first). Success: every actuated joint within
 ``tolerance_deg`` of its target, continuously for ``hold_s``; the episode then terminates. The hand starts
 near the open hand; its base hovers, palm down, and rotates with the glove's palm.
 Reward: 1 while every joint is within tolerance, else -mean joint error (rad).
@@ -23,6 +25,10 @@ from recorder import quat
 from recorder.config import ConfigError, NonNegative, Positive
 from recorder.hand.gestures import GESTURES
 from recorder.hand.kinematics import LIMITS, interpolate_dip
+from recorder.hand.motion import min_jerk
+
+REACH_S = 0.85  # the goal's reach from the open hand (s): a wearer's typical movement time
+SETTLE_S = 1.5  # then held this long
 
 
 def _gesture(name: str) -> str:
@@ -64,7 +70,8 @@ class HandPoseEnv(HandEnv):
         self._held = 0
 
     def settled_goal(self, gesture: str) -> np.ndarray:
-        """Actuated joint positions (nu,) after holding ``gesture``'s joint-mapped targets for 1.5 s."""
+        """Actuated joint positions (nu,) after reaching from the open hand to ``gesture``'s joint-mapped targets
+        in REACH_S (minimum jerk) and holding them for SETTLE_S."""
         if gesture not in self._goals:
             d = mujoco.MjData(self.model)
             d.qpos[:] = self.model.qpos0
@@ -73,10 +80,21 @@ class HandPoseEnv(HandEnv):
             rp, rq = self.robot.root_in_palm
             d.qpos[self._base_qpos : self._base_qpos + 3] = np.array(self.workspace) + rp
             d.qpos[self._base_qpos + 3 : self._base_qpos + 7] = rq
-            d.ctrl[:] = self._map(GESTURES[gesture])
-            mujoco.mj_step(self.model, d, nstep=int(1.5 / self.model.opt.timestep))
+            start, end = GESTURES["open"], GESTURES[gesture]
+            d.qpos[self._jq] = self._robot_qpos(self._map(start))
+            dt = self.model.opt.timestep
+            reach = int(round(REACH_S / dt))
+            for k in range(reach + int(round(SETTLE_S / dt))):
+                d.ctrl[:] = self._map(start + min_jerk(min(k / reach, 1.0)) * (end - start))
+                mujoco.mj_step(self.model, d)
             self._goals[gesture] = d.actuator_length.copy()
         return self._goals[gesture]
+
+    def _robot_qpos(self, ctrl: np.ndarray) -> np.ndarray:
+        """The hand's joint positions (in ``joint_names`` order) with its actuators at ``ctrl``."""
+        q = self._map.qpos(ctrl)
+        robot = self.robot.model
+        return q[robot.jnt_qposadr[[robot.joint(n).id for n in self.joint_names]]]
 
     @property
     def environment_state_names(self):
@@ -89,9 +107,7 @@ class HandPoseEnv(HandEnv):
         self.goal = self.settled_goal(self.goal_name)
         start = GESTURES["open"] + rng.normal(0.0, np.radians(self.config.start_noise_deg), len(LIMITS))
         start = interpolate_dip(np.clip(start, LIMITS[:, 0], LIMITS[:, 1]))
-        q = self._map.qpos(self._map(start))
-        robot = self.robot.model
-        self.data.qpos[self._jq] = q[robot.jnt_qposadr[[robot.joint(n).id for n in self.joint_names]]]
+        self.data.qpos[self._jq] = self._robot_qpos(self._map(start))
         self._held = 0
 
     def _base_target(self, t: float):

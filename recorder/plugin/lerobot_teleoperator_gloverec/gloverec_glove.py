@@ -71,7 +71,7 @@ class GloverecGlove(Teleoperator):
         self.target = _target(config.robot, config.retarget)
         self.glove: Glove | None = None
         self._action: dict[str, float] | None = None
-        self._fresh = 0.0  # host time of the newest pose taken
+        self._fresh = 0.0  # host time at which the glove sampled the newest pose taken
         self._stalled = False
 
     # ------------------------------------------------------------ features
@@ -110,7 +110,7 @@ class GloverecGlove(Teleoperator):
                 f"gloverec_glove: no hand pose from {self.glove_config} in {self.config.first_pose_s:g} s: "
                 "is it a glove, connected and sending?"
             )
-        self._action, self._fresh, self._stalled = self.target(pose), time.monotonic(), False
+        self._action, self._fresh, self._stalled = self.target(pose), self._sampled(glove), False
         return glove
 
     @property
@@ -152,7 +152,11 @@ class GloverecGlove(Teleoperator):
         if self.glove.poll() > 0:
             if self._stalled:
                 logger.info("%s: hand poses again after %.0f ms", self, (now - self._fresh) * 1e3)
-            self._action, self._fresh, self._stalled = self.target(self.glove.track.newest), now, False
+            self._action, self._fresh, self._stalled = (
+                self.target(self.glove.track.newest),
+                self._sampled(self.glove),
+                False,
+            )
         elif not self._stalled and now - self._fresh > max(STALE_INTERVALS * self._interval(), STALE_MIN_S):
             self._stalled = True
             logger.warning(
@@ -162,6 +166,13 @@ class GloverecGlove(Teleoperator):
                 (now - self._fresh) * 1e3,
             )
         return dict(self._action)
+
+    @staticmethod
+    def _sampled(glove: Glove) -> float:
+        """When the newest pose was sampled (host monotonic s): a pose's age counts from there, not from when it
+        was taken, so frames that were queued before the glove went silent do not look fresh."""
+        t = glove.track.newest_s
+        return time.monotonic() if t is None else t
 
     def _interval(self) -> float:
         return self.glove.track.interval_s(1.0 / self.glove_config.rate_hz)

@@ -12,13 +12,22 @@ import gymnasium as gym
 from envs.robots import load_robot, robot_names
 from recorder.config import ConfigError
 
-__all__ = ["ENV_IDS", "load_robot", "make", "robot_names", "task_names"]
+__all__ = ["ENV_IDS", "check_names", "load_robot", "make", "robot_names", "task_names"]
 
 ENV_IDS = {"pose": "gloverec/HandPose-v0", "grasp": "gloverec/HandGrasp-v0"}
 
 
 def task_names() -> tuple[str, ...]:
     return tuple(ENV_IDS)
+
+
+def check_names(robot: str | None = None, task: str | None = None) -> None:
+    """The ``--robot`` and ``--task`` of a command: an unknown one is a one-line ConfigError listing the valid
+    ones (commands check before loading lerobot and torch, which takes seconds)."""
+    if robot is not None and robot not in robot_names() and not robot.endswith((".yaml", ".yml")):
+        raise ConfigError(f"--robot {robot}: unknown robot; valid: {', '.join(robot_names())}")
+    if task is not None and task not in ENV_IDS:
+        raise ConfigError(f"--task {task}: unknown task; valid: {', '.join(ENV_IDS)}")
 
 
 def make(task: str, robot: str = "glovehand", **kwargs) -> gym.Env:

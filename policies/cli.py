@@ -126,6 +126,9 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
+    from envs import check_names  # MuJoCo (0.2 s): not at start-up
+
+    check_names(args.robot, args.task)  # at once, not after torch and lerobot have loaded
     from policies import evaluate as ev  # torch, lerobot and mujoco: not at start-up
 
     seed = ev.EVAL_SEED if args.seed is None else args.seed

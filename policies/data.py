@@ -22,6 +22,7 @@ from lerobot.datasets.lerobot_dataset import LeRobotDataset, LeRobotDatasetMetad
 from tqdm import tqdm
 
 from recorder import GloverecError
+from recorder.dataset_check import check_dataset
 from recorder.hub.names import parse_repo_id
 from recorder.hub.store import Hub
 from recorder.record.sidecar import read_sidecar
@@ -46,16 +47,19 @@ def resolve(
     version: str | None = None,
 ) -> DatasetRef:
     """The dataset ``repo_id``: ``root`` if given (a recording, e.g. datasets/recordings/USER/NAME), else its
-    version in the local hub (the newest unless ``version``); a GloverecError says what is missing."""
+    version in the local hub (the newest unless ``version``), checked first: a missing or damaged dataset is a
+    one-line GloverecError saying what is wrong (a folder by its parquet files and counts, a hub version against
+    its manifest's checksums)."""
 
     parse_repo_id(repo_id)
     if root is not None:
         path = Path(root)
         if not (path / "meta" / "info.json").is_file():
             raise GloverecError(f"{root} is not a LeRobot dataset (no meta/info.json)")
+        check_dataset(path)
         return DatasetRef(repo_id, path.absolute(), None)
 
-    v = Hub(hub).version(repo_id, version)
+    v = Hub(hub).checked(repo_id, version)
     return DatasetRef(repo_id, v.path.resolve(), v.tag)
 
 
@@ -92,8 +96,13 @@ def split_episodes(meta, root: Path, val_fraction: float, seed: int, successful_
     side = sidecar(root)
     if successful_only and side:
         episodes = [e for e in episodes if side.get(e, {}).get("success", True)]
+        if not episodes:
+            raise GloverecError(
+                f"{root} has no successful episodes to train on (the recorder marked all {meta.total_episodes} "
+                "unsuccessful): --all-episodes trains on them anyway"
+            )
     if not episodes:
-        raise GloverecError(f"{root} has no {'successful ' if successful_only else ''}episodes to train on")
+        raise GloverecError(f"{root} has no episodes to train on")
     rng = np.random.default_rng(seed)
     order = [int(e) for e in rng.permutation(episodes)]
     n_val = 0 if len(order) < 2 or val_fraction <= 0 else max(1, int(round(val_fraction * len(order))))

@@ -43,7 +43,14 @@ def build_parser() -> argparse.ArgumentParser:
     e = sub.add_parser("emulate", help="serve a synthetic glove on a pseudo-terminal")
     e.add_argument("--rate", type=positive_float, default=200.0, help="frames per second (default 200)")
     e.add_argument("--mode", choices=("raw", "pose", "json", "compact"), default="pose")
-    e.add_argument("--motion", choices=("gestures", "random"), default="gestures")
+    e.add_argument(
+        "--motion",
+        choices=("gestures", "random", "calibration", "calibration_pinch"),
+        default="gestures",
+        help="the emulated wearer: moves between gestures, moves at random, or (calibration) rests until "
+        "`gloverec calibrate` asks for raw frames, then performs its steps (with the pinch step: "
+        "calibration_pinch), then gestures (default gestures)",
+    )
     e.add_argument("--duration", type=positive_float, help="seconds to stream (default: until killed)")
     e.add_argument("--seed", type=int, default=0)
     e.add_argument("--link", help="also expose the port as this stable symlink (as udev does for real gloves)")
@@ -118,11 +125,15 @@ def _interrupt(*_):
 
 def cmd_emulate(args) -> int:
     from recorder.emulator.emulator import Emulator  # numpy and the synthetic IMUs: not at start-up
+    from recorder.emulator.procedure import OnRequest
 
+    motion = args.motion
+    if motion.startswith("calibration"):  # performs the steps when `gloverec calibrate` switches it to raw
+        motion = OnRequest("gestures", args.seed, args.rate, pinch=motion == "calibration_pinch")
     emu = Emulator(
         args.rate,
         args.mode,
-        args.motion,
+        motion,
         args.seed,
         link=args.link,
         keep_truth=bool(args.truth),
@@ -191,7 +202,7 @@ def _glove(args):
     from recorder.glove.glove import make_glove  # fusion and the emulator: not at start-up
 
     config = GloveConfig.parse(args.port, protocol=getattr(args, "protocol", "auto"), baudrate=args.baud)
-    return make_glove(config, fast=getattr(args, "fast", False))
+    return make_glove(config, fast=getattr(args, "fast", False), warm_fusion=False)
 
 
 def cmd_log(args) -> int:

@@ -82,3 +82,35 @@ def wait_for(predicate, timeout: float = 5.0, step: float = 0.02) -> bool:
             return True
         time.sleep(step)
     return predicate()
+
+
+class CliResult(subprocess.CompletedProcess):
+    pass
+
+
+def cli(*args: str) -> CliResult:
+    """Run `gloverec ARGS` in this process, for what no process boundary is part of (argument handling, error
+    messages, inspect, the hub, training): its exit code, stdout and stderr as a child's would be. The global
+    state a command sets (the SIGTERM handler, torch's thread count, the root logger's level) is put back."""
+    import io
+    import logging
+    from contextlib import redirect_stderr, redirect_stdout
+
+    import torch  # loaded first, so that its thread count can be put back (the policy commands set it)
+
+    from recorder.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    handler, level = signal.getsignal(signal.SIGTERM), logging.getLogger().level
+    threads = torch.get_num_threads()
+    try:
+        with redirect_stdout(out), redirect_stderr(err):
+            try:
+                code = main(list(args))
+            except SystemExit as exc:  # argparse: usage errors and --help
+                code = exc.code if isinstance(exc.code, int) else 1
+    finally:
+        signal.signal(signal.SIGTERM, handler)
+        logging.getLogger().setLevel(level)
+        torch.set_num_threads(threads)
+    return CliResult(["gloverec", *args], code, out.getvalue(), err.getvalue())

@@ -78,9 +78,28 @@ def test_calibrate_prints_a_table_and_takes_a_glove_id(tmp_path):
     assert GloveCalibration.load(tmp_path, 0xC0FFEE).glove_id == 0xC0FFEE
 
 
+def frame_kinds(port: str, seconds: float = 0.5) -> set[str]:
+    """The kinds of the hand frames a glove on ``port`` sends now (read through the real serial path)."""
+    from recorder.link.serial_source import SerialSource
+
+    source = SerialSource(port)
+    source.open()
+    try:
+        end, kinds = time.monotonic() + seconds, set()
+        while time.monotonic() < end:
+            f = source.read(0.05)
+            if f is not None and type(f).__name__ in ("PoseFrame", "RawFrame", "PoseCompactFrame"):
+                kinds.add(type(f).__name__)
+        return kinds
+    finally:
+        source.close()
+
+
 def test_a_moving_hand_is_refused(emulator, tmp_path):
     """A real pty and pyserial, as with a glove: the pose-mode emulator is switched to raw frames by the
-    set-mode command; its wearer never stops moving, so step 1 is refused, repeated and finally given up."""
+    set-mode command; its wearer never stops moving, so step 1 is refused, repeated and finally given up, and
+    the glove is put back in pose mode (it used to stay in raw mode, so every later recording fused on the
+    host without a word)."""
     emu = emulator("--rate", "200", "--mode", "pose", "--motion", "gestures")
     r = gloverec(
         "calibrate",
@@ -97,6 +116,24 @@ def test_a_moving_hand_is_refused(emulator, tmp_path):
     assert err[-1].startswith("gloverec: error: calibration refused: the hand moved") and "2 attempt(s)" in err[-1]
     assert sum(line.startswith("refused: the hand moved") for line in err) == 1 and "Traceback" not in r.stderr
     assert not (tmp_path / "cal").exists()
+    assert "glove back in pose mode" in r.stderr and frame_kinds(emu.port) == {"PoseFrame"}
+
+
+def test_a_standalone_emulator_performs_the_steps_when_calibrate_asks(emulator, tmp_path):
+    """`gloverec emulate --motion calibration` (docs/recording.md): its wearer rests until calibrate switches it
+    to raw frames, then performs the steps; a second calibration starts them again from a gesturing hand. Both
+    pass step 1 at the first attempt, and the glove ends in the mode it started in."""
+    emu = emulator("--rate", "200", "--mode", "compact", "--motion", "calibration")
+    for _ in range(2):
+        r = gloverec(
+            "calibrate", "--glove", emu.port, "--yes", "--dir", str(tmp_path), "--json", stdin=open(os.devnull)
+        )
+        assert r.returncode == 0, r.stderr
+        summary = json.loads(r.stdout)
+        assert summary["quality"]["still_attempts"] == 1 and summary["quality"]["rest_still"]
+        assert all(summary["accel_offset_ok"]) and "glove back in compact mode" in r.stderr
+        assert frame_kinds(emu.port) == {"PoseCompactFrame"}
+        time.sleep(1.0)  # the emulated wearer gestures again before the second calibration
 
 
 def test_bad_gloves_and_files_are_one_line_errors(tmp_path):

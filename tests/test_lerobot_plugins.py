@@ -19,7 +19,7 @@ from lerobot_robot_gloverec import GloverecSim, GloverecSimConfig
 from lerobot_teleoperator_gloverec import GloverecGlove, GloverecGloveConfig
 
 import envs
-from conftest import EmulatorProcess, gloverec
+from conftest import EmulatorProcess, cli, gloverec
 from recorder.config import ConfigError
 from recorder.hand.gestures import GESTURES
 from recorder.retarget.motor_map import load_motor_map
@@ -192,3 +192,20 @@ def test_the_sim_resets_its_scene_when_the_task_ends():
         assert grasp.episodes == 1 and steps < 5.5 * 30  # before the task's time limit
     finally:
         grasp.disconnect()
+
+
+def test_the_teleoperator_retargets_with_the_wearers_hand_profile(tmp_path):
+    """`--teleop.wearer=NAME` (docs/lerobot.md), as `gloverec record --wearer NAME`: the saved profile's hand
+    size reaches the retargeter; a wearer with no profile is one line before any glove opens."""
+    from recorder.hand.profile import load_profile
+
+    r = cli("calibrate", "--wearer", "ana", "--hand-length", "170", "--hand-breadth", "80", "--dir", str(tmp_path))
+    assert r.returncode == 0, r.stderr
+    teleop = GloverecGlove(GloverecGloveConfig(robot="shadow", wearer="ana", calibration_dir=tmp_path))
+    assert teleop.target.retarget.hand_size == load_profile("ana", tmp_path).size()
+    assert (
+        GloverecGlove(GloverecGloveConfig(robot="shadow")).target.retarget.hand_size
+        != load_profile("ana", tmp_path).size()
+    )
+    with pytest.raises(ConfigError, match="no hand profile for wearer 'bo'"):
+        GloverecGlove(GloverecGloveConfig(robot="shadow", wearer="bo", calibration_dir=tmp_path))

@@ -268,3 +268,28 @@ def test_firmware_in_the_loop_through_the_pty(emulator):
     assert np.isfinite(angles).all() and np.ptp(angles, axis=0).max() > 0.1  # after boot calibration it moves
     assert np.allclose(np.linalg.norm(np.stack([f.palm_quat for f in frames]), axis=1), 1, atol=1e-3)
     assert src.clock.host_monotonic
+
+
+def test_the_glove_rate_is_counted_over_a_second_of_its_clock():
+    """What the views show as the glove's rate. A median of the pose intervals read 10417 Hz for a glove whose
+    frames came in bursts (an emulator catching up after being starved of CPU stamps each frame as it sends it)
+    and 0 Hz while a raw glove rested before host fusion's first pose: a count over a window of glove time reads
+    the 200 Hz the glove sends in both."""
+    from recorder.glove.track import FrameRate, PoseTrack
+    from recorder.hand.pose import HandPose
+
+    bursts = [k * 0.05 + j * 1e-4 for k in range(60) for j in range(10)]  # 10 frames each 50 ms, 0.1 ms apart
+    rate, track = FrameRate(1.0), PoseTrack()
+    pose = HandPose(np.zeros(20), np.array([1.0, 0, 0, 0]), np.ones(20, bool))
+    for t in bursts:
+        rate.add(t)
+        track.push(t, pose)
+    assert 1 / track.interval_s(0.005) > 5000  # what the views showed
+    assert rate.hz() == pytest.approx(200.0, rel=0.02)
+    steady = FrameRate(1.0)
+    assert steady.hz(default=-1.0) == -1.0
+    for k in range(1000):
+        steady.add(k / 200.0)
+    assert steady.hz() == pytest.approx(200.0)
+    steady.add(10.0)  # after a gap of 5 s: only what the last second holds
+    assert steady.hz() == 1.0

@@ -14,7 +14,7 @@ from lerobot.datasets.lerobot_dataset import LeRobotDataset, LeRobotDatasetMetad
 from safetensors.torch import load_file
 
 import envs
-from conftest import gloverec
+from conftest import cli, gloverec
 
 REPO = "test/bcpose"
 
@@ -350,6 +350,21 @@ def test_bad_input_on_real_data_is_one_line(dataset, trained, tmp_path):
         gloverec("train", "--repo-id", REPO, "--root", str(dataset), "--out", str(tmp_path / "new"), "--resume"),
         "nothing to resume",
     )
+
+
+def test_a_dataset_without_a_successful_episode_names_all_episodes(dataset, tmp_path):
+    """Every take marked failed: the error says how to train on them anyway."""
+    copy = tmp_path / "failed"
+    shutil.copytree(dataset, copy)  # the recording's newest snapshot, as plain files
+    sidecar = copy / "meta/gloverec/episodes.jsonl"
+    lines = [json.loads(line) for line in sidecar.read_text().splitlines()]
+    sidecar.write_text("".join(json.dumps({**e, "success": False}) + "\n" for e in lines))
+    r = cli("train", "--repo-id", REPO, "--root", str(copy), "--steps", "2", "--out", str(tmp_path / "out"))
+    one_line_error(r, "has no successful episodes to train on (the recorder marked all 4 unsuccessful)")
+    assert "--all-episodes" in r.stderr
+    r = cli("train", "--repo-id", REPO, "--root", str(copy), "--steps", "2", "--out", str(tmp_path / "out"),
+            "--all-episodes", "--json")  # fmt: skip
+    assert r.returncode == 0 and json.loads(r.stdout)["train_episodes"] == 4 - json.loads(r.stdout)["val_episodes"]
 
 
 # ---------------------------------------------------------------- cameras

@@ -13,7 +13,7 @@ import pytest
 from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
 import envs
-from conftest import gloverec, wait_for
+from conftest import cli, gloverec, wait_for
 from recorder.record.sidecar import read_sidecar
 
 
@@ -132,7 +132,7 @@ def test_sigkill_during_recording_keeps_saved_episodes_and_resume_continues(tmp_
         (["--task", "juggle"], "unknown task"),
         (["--repo-id", "../evil"], "bad repo id"),
         (["--repo-id", "noslash"], "bad repo id"),
-        (["--task", "grasp", "--episode-time-s", "1"], "too short"),
+        (["--task", "grasp", "--episode-time-s", "1"], "--episode-time-s 1: the grasp task's script takes"),
         (["--glove", "/dev/does-not-exist"], "no such port"),
     ],
 )
@@ -212,7 +212,7 @@ def test_keyboard_lines_end_rerecord_and_stop(emulator, tmp_path):
         "--episodes",
         "5",
         "--episode-time-s",
-        "4",
+        "4.6",
         "--reset-time-s",
         "0.2",
         "--task",
@@ -245,7 +245,7 @@ def test_unplug_discards_the_episode_and_recording_carries_on(emulator, tmp_path
         "--episodes",
         "2",
         "--episode-time-s",
-        "3.6",
+        "4.6",
         "--reset-time-s",
         "0.2",
         "--task",
@@ -354,3 +354,148 @@ def test_real_time_episodes_run_without_cyclic_gc_and_restore_it():
     assert gc.isenabled()
     with _no_gc_pauses(enabled=False):  # faster than real time: collections as usual
         assert gc.isenabled()
+
+
+# ---------------------------------------------------------------- a session as a person runs it (issue 20)
+
+PREPARED = """
+import json, sys
+from recorder.fusion import pipeline
+from recorder.glove.glove import open_glove
+said = []
+emulated = open_glove("emulator", say=said.append)  # pose frames: nothing to compile
+pose = len(pipeline.run.signatures)
+emulated.close()
+glove = open_glove(sys.argv[1], say=said.append)  # a serial glove may send raw frames
+print(json.dumps({"pose": pose, "serial": len(pipeline.run.signatures), "read": glove.received, "said": said}))
+glove.close()
+"""
+
+
+def test_a_glove_that_may_send_raw_frames_has_host_fusion_compiled_when_it_opens(emulator, tmp_path):
+    """What froze a reset period for 10-40 s and then ended it with a false "no glove frames": host fusion's
+    numba kernels were compiled at the first raw frame, inside the loop (9 s on an idle 2-core machine the first
+    time after an install, 25 s under load), so the view and the countdown stopped and the loop's wall-clock
+    check fired as soon as it ran again. The kernels are now compiled (or loaded from numba's cache) when the
+    glove opens, before any frame is read. A fresh interpreter, so nothing compiled them before."""
+    emu = emulator("--rate", "200", "--mode", "raw")
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba")}  # a cold cache: the compiler runs
+    r = subprocess.run([sys.executable, "-c", PREPARED, emu.port], capture_output=True, text=True, timeout=180, env=env)
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert out["pose"] == 0 and out["serial"] >= 1 and out["read"] == 0, out
+    assert any("preparing host fusion" in line for line in out["said"]), out["said"]
+
+
+def test_a_glove_without_hand_frames_ends_the_session_saying_why(tmp_path):
+    """A log of status frames only, as a glove that never streams its hand: one line that says what came and
+    what the first pose waited for (it used to say "no glove frames" whatever came)."""
+    from recorder.log.writer import McapLogger
+    from recorder.protocol import encode_frame
+    from recorder.protocol.frames import StatusFrame
+
+    log = tmp_path / "status.mcap"
+    with McapLogger(str(log), {"source": "test"}) as logger:
+        for k in range(20):
+            logger(encode_frame(StatusFrame(k, k * 100_000, glove_id=7)), 1_000_000_000 + k * 100_000_000, [])
+    r = cli("record", "--glove", f"mcap:{log}", "--episodes", "1", "--root", str(tmp_path / "ds"), "--view", "none")
+    assert r.returncode == 1 and r.stderr.count("\n") == 1, r.stderr
+    assert "ended after 20 frames without a hand pose" in r.stderr and "sends frames without one" in r.stderr
+
+
+def test_ctrl_c_keeps_the_saved_episodes_and_says_so(tmp_path):
+    root = tmp_path / "ds"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "recorder.cli", "record", "--view", "none", "--episodes", "50", "--root", str(root),
+         "--repo-id", "test/int"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    lines = []
+    for line in proc.stderr:
+        lines.append(line)
+        if line.startswith("episode 1 saved"):
+            break
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, "".join(lines) + err
+    last = out.strip().splitlines()[-1]
+    saved = int(last.split("stopped: ")[1].split(" ")[0])
+    assert saved >= 2 and "--resume" in last and "Traceback" not in err
+    assert LeRobotDataset("test/int", root=root).meta.total_episodes == saved
+
+
+CHECK_FIRST = """
+import json, sys
+from recorder.cli import main
+code = main(sys.argv[1:])
+print(json.dumps({"code": code, "heavy": sorted(m for m in ("torch", "lerobot") if m in sys.modules)}))
+"""
+
+
+@pytest.mark.parametrize(
+    "args, needle",
+    [
+        (["record", "--robot", "shadw"], "--robot shadw: unknown robot; valid: glovehand, leap, shadow"),
+        (["record", "--task", "grasp", "--episode-time-s", "3"], "--episode-time-s 3: the grasp task's script"),
+        (["eval", "--policy", "demonstrator", "--robot", "shadw", "--task", "pose"], "--robot shadw: unknown"),
+        (["eval", "--policy", "demonstrator", "--robot", "shadow", "--task", "graps"], "--task graps: unknown"),
+    ],
+)
+def test_wrong_names_and_values_fail_before_torch_and_lerobot_load(args, needle):
+    r = subprocess.run([sys.executable, "-c", CHECK_FIRST, *args], capture_output=True, text=True, timeout=60)
+    out = json.loads(r.stdout.strip().splitlines()[-1]) if r.stdout.strip() else {}
+    assert needle in r.stderr and r.stderr.count("\n") == 1, r.stderr
+    assert out == {"code": None, "heavy": []} or out.get("heavy") == [], out
+
+
+@pytest.fixture(scope="module")
+def damaged(pose_dataset, tmp_path_factory):
+    """A copy of the recording (its snapshots too) with one data file cut short, and the intact one in a hub
+    whose copy of that file is cut short as well."""
+    import shutil
+
+    root, _ = pose_dataset
+    base = tmp_path_factory.mktemp("damaged")
+    hub = base / "hub"
+    assert cli("push", "--repo-id", "test/pose", "--root", str(root), "--hub", str(hub)).returncode == 0
+    shutil.copytree(root.parent / f".{root.name}.gloverec", base / f".{root.name}.gloverec", symlinks=True)
+    copy = base / root.name
+    os.symlink(os.readlink(root), copy)  # the recording's root: a link to its newest snapshot
+    victim = sorted((copy / "data").rglob("*.parquet"))[-1]
+    os.truncate(victim, victim.stat().st_size // 2)
+    published = sorted((hub / "test").glob("pose@v*/data/**/*.parquet"))[-1]
+    published.chmod(0o644)
+    os.truncate(published, published.stat().st_size // 2)
+    return copy, hub
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ("inspect", "--plot", "PLOT"),
+        ("inspect", "--no-plot"),
+        ("train", "--steps", "2", "--out", "OUT"),
+        ("replay", "--episode", "0"),
+    ],
+)
+def test_a_damaged_dataset_is_one_line(damaged, tmp_path, args):
+    copy, _ = damaged
+    args = [a.replace("PLOT", str(tmp_path / "p.png")).replace("OUT", str(tmp_path / "out")) for a in args]
+    r = cli(args[0], "--repo-id", "test/pose", "--root", str(copy), *args[1:])
+    assert r.returncode == 1 and r.stderr.count("\n") == 1, r.stderr
+    assert "is a damaged LeRobot dataset: data/" in r.stderr and "is not a readable parquet file" in r.stderr
+
+
+def test_a_damaged_hub_version_is_refused_before_training(damaged, tmp_path):
+    _, hub = damaged
+    r = cli("train", "--repo-id", "test/pose", "--hub", str(hub), "--steps", "2", "--out", str(tmp_path / "out"))
+    assert r.returncode == 1 and r.stderr.count("\n") == 1, r.stderr
+    assert "test/pose v1 in" in r.stderr and "is damaged (altered data/" in r.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_resuming_a_damaged_recording_is_one_line(damaged):
+    copy, _ = damaged
+    r = gloverec("record", "--episodes", "1", "--root", str(copy), "--repo-id", "test/pose", "--resume")
+    assert r.returncode == 1 and r.stderr.count("\n") == 1, r.stderr
+    assert "is a damaged LeRobot dataset" in r.stderr

@@ -61,6 +61,10 @@ class TaskConfig:
         """The defaults with ``overrides``; an unknown option or a bad value: one-line ConfigError."""
         return config.build(cls, overrides, f"{name} task")
 
+    def min_episode_s(self) -> float:
+        """The shortest episode the task can run (its script's length, for tasks that script the base)."""
+        return 0.0
+
 
 def action_names(robot, base_rotation: bool = True) -> tuple[str, ...]:
     """The names of a task's action elements for ``robot``: its actuators, then the palm rotation."""
@@ -89,6 +93,11 @@ class HandEnv(gym.Env):
         self.config = config if config is not None else self.config_class.load(self.task_name, **overrides)
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"unknown render_mode {render_mode!r}; valid: rgb_array")
+        if self.config.episode_s <= self.config.min_episode_s():
+            raise config.ConfigError(
+                f"{self.task_name} task: episode_s {self.config.episode_s:g} s is too short for its script, "
+                f"which takes {self.config.min_episode_s():g} s"
+            )
         self.render_mode = render_mode
         self.robot = load_robot(robot)
         cfg = self.config

@@ -141,6 +141,7 @@ class Calibrator:
         self.view_spec = view
         self.view = None
         self._pending: list = []  # frames read ahead and not used yet
+        self.mode_before: Mode | None = None  # the glove's output mode before calibrating: restored at the end
 
     # ------------------------------------------------------------ the run
     def run(self) -> Result:
@@ -227,7 +228,8 @@ class Calibrator:
     def _open(self):
         # a device runs in real time whatever we do; a log plays back as fast as it is read
         fast = not self.realtime if self.emulated else True
-        self.glove = open_glove(self.glove_config, fast=fast, motion=self.motion)
+        # the steps read raw frames as they come; host fusion runs only at the end (the pinch step)
+        self.glove = open_glove(self.glove_config, fast=fast, motion=self.motion, warm_fusion=False)
         return self.glove.source
 
     def close(self) -> None:
@@ -235,11 +237,38 @@ class Calibrator:
             self.view.close()
             self.view = None
         if self.glove is not None:
+            self._restore_mode()
             self.glove.close()
             self.glove = None
 
+    def _restore_mode(self) -> None:
+        """Put the glove back in the mode it was in (a pose glove stays a pose glove after calibrating, whether
+        the calibration worked or not), and say so."""
+        if self.mode_before is None or self.mode_before == Mode.RAW or self.emulated:
+            return
+        if self._command(CommandCode.SET_MODE, self.mode_before):
+            self._say(f"glove back in {self.mode_before.name.lower()} mode")
+
+    def _first_mode(self) -> list:
+        """The glove's output mode before anything is asked of it, from its first frames (a status frame says
+        it; a pose, compact or raw frame shows it); returns the frames read."""
+        kinds = {PoseFrame: Mode.POSE, PoseCompactFrame: Mode.COMPACT, RawFrame: Mode.RAW}
+        end = time.monotonic() + FIRST_FRAME_S
+        seen = []
+        while time.monotonic() < end and not self.source.finished:
+            f = self.source.read(0.05)
+            if f is None:
+                continue
+            seen.append(f)
+            mode = f.mode if isinstance(f, StatusFrame) else kinds.get(type(f))
+            if mode is not None:
+                self.mode_before = Mode(mode)
+                break
+        return seen
+
     def _raw_mode(self) -> list:
         """Ask for raw frames and wait for them and for the glove id; returns the raw frames read meanwhile."""
+        self._pending = self._first_mode() + self._pending
         self._command(CommandCode.SET_MODE, Mode.RAW)
         name = "the emulator" if self.emulated else self.spec
         t0 = time.monotonic()

@@ -237,6 +237,10 @@ class Emulator:
         if self.plugged:
             host = self._read_host()
             if host:
+                for cmd in self._commands.feed(host):  # the core obeys; the emulated wearer may take a cue
+                    if isinstance(cmd, Command) and cmd.code == CommandCode.SET_MODE and cmd.arg in iter(Mode):
+                        self._mode_cue(Mode(cmd.arg))
+                        self.mode = Mode(cmd.arg)
                 self.core.send(host)
             self._write(self.core.read())
         else:
@@ -386,7 +390,8 @@ class Emulator:
                 self._apply(cmd)
 
     def _apply(self, cmd: Command) -> None:
-        if cmd.code == CommandCode.SET_MODE:
+        if cmd.code == CommandCode.SET_MODE and cmd.arg in iter(Mode):
+            self._mode_cue(Mode(cmd.arg))
             self.mode = Mode(cmd.arg)
         elif cmd.code == CommandCode.SET_RATE and cmd.arg > 0:
             self.output_hz = min(float(cmd.arg), self.sense_hz)
@@ -395,6 +400,13 @@ class Emulator:
         elif cmd.code == CommandCode.RECALIBRATE:
             self._write(self._event(EventCode.CALIB_START) + self._event(EventCode.CALIB_DONE))
         self._write(self._status())
+
+    def _mode_cue(self, mode: Mode) -> None:
+        """A wearer who calibrates when asked (recorder/emulator/procedure.py OnRequest) starts the procedure when
+        the host switches the glove into raw mode: what `gloverec calibrate` does first."""
+        restart = getattr(self.glove.motion, "restart", None)
+        if restart is not None and mode == Mode.RAW and self.mode != Mode.RAW:
+            restart(self.horizon_s)
 
     def press_button(self) -> None:
         """The reset button: an event, as the glove sends when pin 5 goes low."""

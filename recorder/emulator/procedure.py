@@ -120,3 +120,40 @@ def phase(name: str, rate_hz: float, margin_s: float = 0.2) -> slice:
     """Sample indices of a procedure step, ``margin_s`` inside its ends."""
     a, b = PHASES[name]
     return slice(int(round((a + margin_s) * rate_hz)), int(round((b - margin_s) * rate_hz)))
+
+
+class OnRequest(SampledMotion):
+    """The wearer of a standalone emulator (`gloverec emulate --motion calibration`): rests flat until the host
+    asks for raw frames, the first thing `gloverec calibrate` does, then performs the procedure (a
+    ``ProcedureMotion``: the steps, then the ``kind`` motion). Each later switch into raw mode starts it again,
+    from the hand's pose then, moved back to flat in ``SETTLE_S``. So calibrating against an emulator in another
+    process works without a wire command the firmware lacks: the set-mode command is the cue."""
+
+    SETTLE_S = 0.05  # with the 50 ms the emulator synthesises ahead, well inside the 0.2 s a step leaves out at
+    # each end (recorder/calibrate/procedure.py MARGIN_S)
+
+    def __init__(self, kind: str = "gestures", seed: int = 0, rate_hz: float = 200.0, pinch: bool = False):
+        super().__init__(rate_hz)
+        self.procedure = ProcedureMotion(kind, seed, rate_hz, pinch=pinch)
+        self.start_s: float | None = None  # session time at which the procedure's t = 0 is (None: resting)
+        self._from: MotionBlock | None = None  # the pose it settles from (None: from rest)
+
+    def restart(self, at_s: float) -> None:
+        """Start the procedure at session time ``at_s`` (the emulator's synthesis horizon)."""
+        self._from = self.at(np.array([at_s])) if self.start_s is not None else None
+        self.start_s = at_s + (self.SETTLE_S if self._from is not None else 0.0)
+
+    def at(self, t) -> MotionBlock:
+        t = np.asarray(t, float)
+        if self.start_s is None:
+            rest = self.procedure.at(np.zeros_like(t))
+            return MotionBlock(t, rest.angles, rest.palm_quat, rest.palm_pos)
+        out = self.procedure.at(np.maximum(t - self.start_s, 0.0))
+        settling = t < self.start_s
+        if self._from is not None and settling.any():
+            b = min_jerk(np.clip(1.0 - (self.start_s - t[settling]) / self.SETTLE_S, 0.0, 1.0))[:, None]
+            rest = self.procedure.at(np.zeros(int(settling.sum())))
+            out.angles[settling] = (1 - b) * self._from.angles + b * rest.angles
+            out.palm_quat[settling] = quat.slerp(self._from.palm_quat, rest.palm_quat, b[:, 0])
+            out.palm_pos[settling] = (1 - b) * self._from.palm_pos
+        return MotionBlock(t, out.angles, out.palm_quat, out.palm_pos)

@@ -22,6 +22,7 @@ An EventFrame BUTTON (the glove's reset button) resets the reference pose, as ``
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -145,6 +146,7 @@ class HostFusion:
         self.missed = np.zeros(N_IMUS, bool)  # frames were missed since the IMU's last fused sample
         self.last_quats = joints.constrained_relative(np.zeros(N_JOINTS))  # pose frames: the last good one
         self.rest_angles = None  # the pose (20,) rad the hand holds at start and reset; None: the calibration's
+        self.start_rested = None  # whether the hand rested over what ``start`` was given (None: not started)
 
     @property
     def reference_angles(self) -> np.ndarray:
@@ -194,8 +196,9 @@ class HostFusion:
         g, a, _, _ = _arrays(still)
         try:
             self.calibration.gyro_bias = cal.gyro_bias(g, a)
+            self.start_rested = True
         except cal.CalibrationRefused:
-            pass
+            self.start_rested = False  # the calibration's bias is kept; the reference pose is as the hand was
         accel = np.mean(a, axis=0) - self.calibration.accel_offset
         self.filter.reset(accel)
         self.filter.bias[:] = 0.0
@@ -377,6 +380,28 @@ class HostFusion:
             out.constraint[sl],
             out.heading[sl],
         )
+
+
+_COMPILED: set[str] = set()  # filters whose kernels this process has compiled or loaded from numba's cache
+
+
+def compile_kernels(config: FusionConfig | None = None) -> float:
+    """Compile the fusion kernels for ``config``'s filter now (or load them from numba's on-disk cache: about
+    0.2 s); returns the seconds it took. Otherwise the first raw frame a process fuses pays for it: 9 s on an idle
+    2-core machine the first time after an install, 25 s under load, with the caller stalled meanwhile (a
+    recording's reset period froze on it, and its "no glove frames" check then fired)."""
+    config = config or FusionConfig()
+    if config.filter in _COMPILED:
+        return 0.0
+    t0 = time.monotonic()
+    fusion = HostFusion(config)
+    raw = np.zeros((4, N_IMUS, 7), np.int16)
+    raw[..., 2] = 2048  # 1 g on z at the +-16 g scale: a hand at rest, palm down
+    t_us = np.arange(4, dtype=np.int64) * 5000
+    fusion.start((raw[:2], t_us[:2]))
+    fusion.process_block(raw[2:], t_us[2:])
+    _COMPILED.add(config.filter)
+    return time.monotonic() - t0
 
 
 class _Out:

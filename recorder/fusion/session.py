@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +18,7 @@ import numpy as np
 from recorder import GloverecError
 from recorder.config import ConfigError, build
 from recorder.fusion.config import FusionConfig
-from recorder.fusion.host import HostFusion
+from recorder.fusion.host import HostFusion, compile_kernels
 from recorder.hand.calibration import GloveCalibration
 from recorder.hand.kinematics import N_JOINTS, joint_angles_from_relative
 from recorder.hand.pose import HandPose
@@ -28,6 +29,7 @@ from recorder.protocol.frames import EventCode, EventFrame, PoseCompactFrame, Po
 RECORD_FILE = Path("meta") / "gloverec" / "calibration.json"
 REST_S = 1.0  # the hand rests this long at the start of a session: fusion starts from it
 STATUS_WAIT_S = 1.5  # after the rest, how long raw frames wait for a status frame (the glove id; 1 Hz)
+COMPILE_NOTE_S = 1.0  # a kernel compile that takes longer than this is announced while it runs
 
 
 def load_config(path=None) -> FusionConfig:
@@ -203,14 +205,48 @@ class SessionFusion:
 
         def keep(record: dict) -> None:
             write_record(folder, record)
-            if say is not None and record.get("host_fusion") and not record.get("calibrated"):
-                where = getattr(self.fusion, "calibration_path", None)
+            if say is None or not record.get("host_fusion"):
+                return
+            glove = f"glove {record.get('glove_id') or 0:08x}"
+            where = getattr(self.fusion, "calibration_path", None)
+            if record.get("calibrated"):
+                say(f"{glove} sends raw IMU frames: fused on the host with its calibration {where or ''}".rstrip())
+            else:
                 say(
-                    f"warning: glove {record.get('glove_id') or 0:08x} has no saved calibration"
+                    f"warning: {glove} sends raw IMU frames and has no saved calibration"
                     f"{f' ({where} not found)' if where else ''}: fusing uncalibrated; run `gloverec calibrate`"
                 )
 
         self.on_record(keep)
+
+    def warm_up(self, say=None) -> float:
+        """Compile host fusion's kernels before any frame needs them (recorder/fusion/host.py compile_kernels),
+        so the first raw frame never stalls a session; ``say`` gets a line when that takes more than
+        COMPILE_NOTE_S (once per install). Returns the seconds it took."""
+        config = self.fusion.config if self.fusion is not None else load_config(self.config_path)
+        note = threading.Timer(
+            COMPILE_NOTE_S,
+            lambda: say("preparing host fusion: compiling its kernels (once per install, 10-30 s)..."),
+        )
+        if say is not None:
+            note.start()
+        try:
+            seconds = compile_kernels(config)
+        finally:
+            note.cancel()
+        if say is not None and seconds > COMPILE_NOTE_S:
+            say(f"host fusion ready in {seconds:.0f} s (compiled and cached for later sessions)")
+        return seconds
+
+    @property
+    def waiting(self) -> str | None:
+        """What a raw glove's first hand pose waits for (None: nothing, or not a raw glove)."""
+        if self.started or not self._rest:
+            return None
+        span = ((self._rest[-1].t_us - self._rest[0].t_us) & 0xFFFFFFFF) * 1e-6
+        if span < self.rest_s:
+            return f"host fusion starts from {self.rest_s:g} s of raw frames: hold the hand flat and still"
+        return "host fusion waits for the glove's status frame (its id, for its calibration)"
 
     def request_reset(self) -> None:
         """Re-take the reference pose at the next raw frame (safe from another thread: a key reader)."""

@@ -10,8 +10,10 @@ and the glove's own device clock faster than real time (the loop then advances a
 
 from __future__ import annotations
 
+import sys
 import threading
 import time
+from dataclasses import dataclass
 
 from recorder import GloverecError
 from recorder.demonstrator.session import SessionMotion
@@ -19,7 +21,7 @@ from recorder.emulator.emulator import Emulator
 from recorder.emulator.procedure import ProcedureMotion
 from recorder.fusion.session import SessionFusion
 from recorder.glove.config import GloveConfig
-from recorder.glove.track import PoseTrack
+from recorder.glove.track import FrameRate, PoseTrack
 from recorder.hand.kinematics import interpolate_dip
 from recorder.hand.pose import HandPose
 from recorder.link.base import GloveSource
@@ -30,6 +32,24 @@ from recorder.protocol import EventCode, EventFrame
 
 TRANSITION_S = 0.8  # the emulated hand's move back to a demonstration's start pose
 LEAD_S = 0.5  # faster than real time, the emulator runs at most this far ahead of the loop's needs
+RATE_WINDOW_S = 1.0  # the glove's rate: frames over this much of its own time (robust to bursts and resets)
+
+
+@dataclass(frozen=True)
+class GloveHealth:
+    """How the glove is doing, for views and status lines: ``rate_hz`` frames per second of glove time over the
+    last RATE_WINDOW_S (every frame, poses or not: a glove resting before host fusion starts is sending),
+    ``frames`` and ``poses`` taken so far, and what its first pose waits for (None once there is one)."""
+
+    up: bool
+    rate_hz: float
+    frames: int
+    poses: int
+    waiting: str | None = None
+
+
+def _say(text: str) -> None:
+    print(text, file=sys.stderr, flush=True)
 
 
 class _TakenMotion:
@@ -73,7 +93,9 @@ def link_for(config: GloveConfig, *, realtime: bool = True, **options) -> GloveS
 class Glove:
     """See the module docstring. ``fast``: faster than real time (log playback unpaced, the emulator on its own
     clock); ``motion``: the emulator's wearer when the config leaves it open; ``fusion``: a SessionFusion
-    (default: the glove's saved calibration, or for a log the calibration it was recorded with)."""
+    (default: the glove's saved calibration, or for a log the calibration it was recorded with); ``say``: where
+    lines for the person go (stderr); ``warm_fusion``: compile host fusion's kernels at ``open`` when the glove
+    may send raw frames (False for commands that read frames without fusing them as they come)."""
 
     def __init__(
         self,
@@ -83,10 +105,14 @@ class Glove:
         motion: str = "gestures",
         fusion: SessionFusion | None = None,
         calibration_dir=None,
+        say=_say,
+        warm_fusion: bool = True,
         **link_options,
     ):
         self.config = config
         self.fast = fast
+        self.say = say  # lines for the person (host fusion being prepared)
+        self.warm_fusion = warm_fusion  # compile host fusion at open (commands that fuse frames as they come)
         self.fusion = fusion if fusion is not None else _fusion_for(config, calibration_dir)
         self.emulator: Emulator | None = None
         self.session: SessionMotion | None = None  # the scripted demonstrations the emulated wearer performs
@@ -101,6 +127,8 @@ class Glove:
         self.track = PoseTrack()
         self.buttons: list[float] = []  # glove times of button presses not yet taken
         self.frames = 0  # frames that carried a hand pose
+        self.received = 0  # every frame taken
+        self._rate = FrameRate(RATE_WINDOW_S)
 
     def _plug_emulator(self, config: GloveConfig) -> str:
         if self.motion == "demonstrations":
@@ -125,6 +153,8 @@ class Glove:
 
     # ------------------------------------------------------------ lifecycle
     def open(self) -> Glove:
+        if self.warm_fusion and self._may_fuse():  # before the link opens: no raw frame waits for a compiler
+            self.fusion.warm_up(self.say)
         self.source.open()
         if self.emulator is not None:
             if self.fast and self.session is not None:  # demonstrations are scheduled as the loop goes
@@ -136,6 +166,13 @@ class Glove:
         if self.emulator is not None:
             self.emulator.close()
         self.source.close()
+
+    def _may_fuse(self) -> bool:
+        """Whether this glove may send raw frames for host fusion: an emulator in raw mode, a device (its mode is
+        the glove's), a log recorded with host fusion."""
+        if self.fusion.host is not None:  # known already (the emulator, a log's record)
+            return bool(self.fusion.host)
+        return self.config.kind != "emulator"
 
     def __enter__(self) -> Glove:
         return self.open()
@@ -202,12 +239,41 @@ class Glove:
         self.fusion.request_reset()
 
     def _take(self, f) -> None:
+        t = self.time_of(f)
+        self.received += 1
+        self._rate.add(t)
+        started = self.fusion.started
         pose = self.fusion.process(f)  # every frame: ids, the button, raw frames fused
+        if self.fusion.started and not started and self.fusion.fusion.start_rested is False:
+            self.say(
+                "the hand moved while host fusion started, so its reference pose may be off: hold the hand flat "
+                "and zero it (z in the terminal, the view's zero, or the glove's button)"
+            )
         if pose is not None:
             self.frames += 1
-            self.track.push(self.time_of(f), pose)
+            self.track.push(t, pose)
         elif isinstance(f, EventFrame) and f.code == EventCode.BUTTON:
-            self.buttons.append(self.time_of(f))
+            self.buttons.append(t)
+
+    # ------------------------------------------------------------ health
+    def rate_hz(self, default: float = 0.0) -> float:
+        """Frames per second of glove time over the last RATE_WINDOW_S (``default`` before two frames)."""
+        return self._rate.hz(default)
+
+    def waiting_for(self) -> str | None:
+        """What the glove's first hand pose waits for, in words for the person; None once there is one."""
+        if self.track.newest_s is not None:
+            return None
+        if not self.connected:
+            return f"{self.name} to come back (its port is gone)"
+        if self.received == 0:
+            return f"frames from {self.name} (is it connected and sending?)"
+        if self.fusion.started:
+            return "host fusion's first pose"  # the frame that started it gave none: the next one will
+        return self.fusion.waiting or f"a hand pose: {self.name} sends frames without one (status, events)"
+
+    def health(self) -> GloveHealth:
+        return GloveHealth(self.connected, self.rate_hz(), self.received, self.frames, self.waiting_for())
 
     def take_button(self) -> float | None:
         return self.buttons.pop(0) if self.buttons else None

@@ -69,3 +69,31 @@ class PoseTrack:
         while len(self._t) > 2 and self._t[1] <= t:
             self._t.popleft()
             self._p.popleft()
+
+
+class FrameRate:
+    """Frames per second of glove time over the last ``window_s``: a count over a window, not a median of the
+    intervals, so a glove whose frames arrive in bursts (an emulator or a USB stack catching up: intervals of
+    0.1 ms, then 50 ms) reads as the rate it really sends, and a glove resting before host fusion starts (no poses
+    yet) as sending."""
+
+    def __init__(self, window_s: float = 1.0):
+        self.window_s = float(window_s)
+        self._t: deque[float] = deque()
+        self._full = False  # frames older than the window have come: it is covered from end to end
+
+    def add(self, t: float) -> None:
+        self._t.append(t)
+        while self._t[0] <= t - self.window_s:
+            self._t.popleft()
+            self._full = True
+
+    def hz(self, default: float = 0.0) -> float:
+        """The rate: frames in the last ``window_s`` over its length, or over the time since the first frame while
+        the window is not yet covered (``default`` before two frames)."""
+        t = self._t
+        if self._full:
+            return len(t) / self.window_s
+        if len(t) < 2 or t[-1] <= t[0]:
+            return default
+        return (len(t) - 1) / (t[-1] - t[0])

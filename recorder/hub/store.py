@@ -13,8 +13,8 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from recorder import GloverecError, __version__
-from recorder.hub import atomic, dataset, manifest, names
+from recorder import GloverecError, __version__, dataset_check as dataset
+from recorder.hub import atomic, manifest, names
 from recorder.paths import HUB_ENV, hub_dir
 
 _VERSION_DIR = re.compile(r"(?P<name>[A-Za-z0-9][A-Za-z0-9._-]*)@v(?P<number>[1-9][0-9]*)")
@@ -115,6 +115,18 @@ class Hub:
         raise GloverecError(
             f"{repo_id} has no version {names.tag(number)} in {self.root} (it has {', '.join(v.tag for v in have)})"
         )
+
+    def checked(self, repo_id: str, version: str | None = None) -> Version:
+        """Version ``vN`` (the newest by default), every file checked against its manifest first: a damaged
+        version is a one-line GloverecError, never a dataset that fails to load halfway through a command."""
+        v = self.version(repo_id, version)
+        check = self._check(v)
+        if not check.ok:
+            raise GloverecError(
+                f"{repo_id} {v.tag} in {self.root} is damaged ({check.describe()}): `gloverec hub verify` checks "
+                "every version; push the recording again to publish a sound one"
+            )
+        return v
 
     def link(self, repo_id: str) -> Path:
         """``<hub>/USER/NAME``: the symlink to the newest version, what `LeRobotDataset(root=...)` is given."""

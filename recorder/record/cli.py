@@ -24,6 +24,7 @@ def run_record(args: argparse.Namespace) -> int:
     from recorder.hand.profile import wearer_profile
 
     cfg = RecordConfig.load(args.config, **config.overrides(args, RecordConfig))
+    cfg.check()  # names and values: one line in a fraction of a second, before lerobot and torch load
     profile = wearer_profile(cfg.wearer)  # a missing or impossible profile: one line, before the heavy imports
 
     from recorder.record.recorder import record  # loads lerobot, torch and mujoco: not at start-up
@@ -31,13 +32,19 @@ def run_record(args: argparse.Namespace) -> int:
     summary = record(cfg, profile)
     if args.json:
         print(json.dumps(summary))
+    elif summary["interrupted"]:  # Ctrl-C: what was kept and how to go on; the exit status stays 130
+        print(
+            f"stopped: {summary['episodes_saved']} episode(s) saved in this session; {summary['root']} holds "
+            f"{summary['total_episodes']} episodes, {summary['total_frames']} frames; the same command with "
+            "--resume records more"
+        )
     else:
         print(
             f"{summary['episodes_saved']} episode(s) saved; {summary['root']} now holds "
             f"{summary['total_episodes']} episodes, {summary['total_frames']} frames "
             f"(LeRobotDataset({summary['repo_id']!r}, root={summary['root']!r}))"
         )
-    return 0
+    return 130 if summary["interrupted"] else 0
 
 
 def add_rerecord_parser(sub) -> None:

@@ -105,3 +105,25 @@ class RecordConfig:
     @property
     def root_path(self) -> Path:
         return Path(self.root) if self.root else recordings_dir() / self.repo_id
+
+    def check(self) -> None:
+        """What can be checked in a fraction of a second, before lerobot and torch load (seconds): the robot and
+        the task by name, the task's settings and the episode length against the task's script. A problem is a
+        one-line ConfigError naming the flag."""
+        from envs import check_names  # MuJoCo (0.2 s): not at start-up
+        from envs.tasks import TASKS
+
+        check_names(self.robot, self.task)
+        task = TASKS[self.task].config_class.load(self.task, **self.task_options())
+        if self.episode_time_s is not None and self.episode_time_s <= task.min_episode_s():
+            raise cfg.ConfigError(
+                f"--episode-time-s {self.episode_time_s:g}: the {self.task} task's script takes "
+                f"{task.min_episode_s():g} s, so its episodes must be longer (default {type(task)().episode_s:g} s)"
+            )
+
+    def task_options(self) -> dict:
+        """The task's settings this recording gives (the rest are the task's defaults)."""
+        options = {"control_hz": float(self.fps), "cameras": tuple(self.cameras), "image_size": tuple(self.image_size)}
+        if self.episode_time_s:
+            options["episode_s"] = float(self.episode_time_s)
+        return options

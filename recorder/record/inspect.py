@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from recorder import GloverecError
+from recorder.dataset_check import check_dataset
 from recorder.record.config import REPO_ID
 from recorder.record.sidecar import read_sidecar
 
@@ -140,6 +141,7 @@ def run(args) -> int:
     root = dataset_root(args.repo_id, args.root, args.hub)
     if not root.exists():
         raise GloverecError(f"no dataset at {root}")
+    check_dataset(root)  # a damaged dataset: one line saying what is wrong, before lerobot reads it
     rows = episodes_table(args.repo_id, root)
     plot = None
     if not args.no_plot and rows:

@@ -55,8 +55,10 @@ class LiveView:
         self.saved += 1
         self.successes += bool(success)
 
-    def reset_period(self, index: int, countdown: float | None) -> None:
-        self._publish({"phase": "reset", "episode": index, "countdown": countdown})
+    def reset_period(self, index: int, countdown: float | None, waiting: str | None = None) -> None:
+        """``countdown``: seconds until the episode starts (None: no limit, or not running yet); ``waiting``: what
+        the glove's first pose waits for."""
+        self._publish({"phase": "reset", "episode": index, "countdown": countdown, "waiting": waiting})
 
     def recording(self, index: int, k: int, frames: int, stats) -> None:
         left = (frames - k - 1) / self.cfg.fps
@@ -88,8 +90,8 @@ class LiveView:
 
     def _health(self, stats) -> dict:
         g = self.glove
-        rate = 1.0 / g.track.interval_s(1.0 / self.cfg.glove.rate_hz) if len(g.track) else 0.0
-        out = {"rate_hz": rate, "up": g.connected}
+        health = g.health()
+        out = {"rate_hz": health.rate_hz, "up": health.up}
         if stats is not None:
             out["late"] = stats.held
             self._late_ms = max(stats.jitter_s[-25:], default=0.0) * 1e3

@@ -37,6 +37,8 @@ from recorder.record.writer import EpisodeWriter
 from recorder.retarget import Retargeter
 
 FIRST_SAMPLE_TIMEOUT_S = 5.0
+NO_POSE_S = 30.0  # the reset period waits this long for the glove's first hand pose, saying what for
+WAITING_NOTE_S = 1.0  # a wait longer than this is said in the terminal (the view shows it at once)
 
 
 @dataclass
@@ -103,15 +105,9 @@ class Recorder:
         self.plan = list(plan) if plan is not None else None
         self.fast = cfg.is_fast
         self.out = out
+        cfg.check()
         try:
-            env_opts = {
-                "control_hz": float(cfg.fps),
-                "cameras": tuple(cfg.cameras),
-                "image_size": tuple(cfg.image_size),
-            }
-            if cfg.episode_time_s:
-                env_opts["episode_s"] = float(cfg.episode_time_s)
-            self.env = envs.make(cfg.task, cfg.robot, **env_opts)
+            self.env = envs.make(cfg.task, cfg.robot, **cfg.task_options())
             self.env.reset(seed=cfg.seed)  # a task setting that cannot work fails here, before anything is written
         except ValueError as exc:
             raise GloverecError(str(exc)) from None
@@ -142,7 +138,7 @@ class Recorder:
 
     def _open_session(self, control) -> None:
         cfg = self.cfg
-        self.glove = make_glove(cfg.glove_config, fast=self.fast, motion="demonstrations")
+        self.glove = make_glove(cfg.glove_config, fast=self.fast, motion="demonstrations", say=self._say)
         self.glove.fusion.keep_in(self.store.work, self._say)  # meta/gloverec/calibration.json, before any episode
         write_profile(self.store.work, self.profile)  # meta/gloverec/hand_profile.json: whose hand it was
         self.logger = None
@@ -182,34 +178,15 @@ class Recorder:
     def run(self) -> dict:
         """Record until ``episodes`` are saved or the user stops; returns a summary."""
         cfg = self.cfg
-        recorded, rerecorded, lost = 0, 0, 0
+        interrupted = False
         self.saved = []
         if not self.fast:
             gc.collect()
             gc.freeze()  # the heap of torch, lerobot, mujoco (~0.3 s to traverse): never looked at again
         try:
-            self.glove.open()
-            self._say(
-                f"recording {cfg.episodes} episode(s) of {cfg.task} on {cfg.robot} from {self.glove.name} "
-                f"({'faster than real time' if self.fast else 'real time'}) into {cfg.root_path}"
-            )
-            while recorded < (cfg.episodes if self.plan is None else len(self.plan) + recorded):
-                index = self.store.next_index
-                outcome, result = self._one_episode(index)
-                self._report_saved()
-                if outcome == "saved":
-                    recorded += 1
-                elif outcome == "rerecord":
-                    rerecorded += 1
-                    self._say(f"episode {index} discarded: re-recording it")
-                elif outcome == "lost":
-                    lost += 1
-                    self._say(f"episode {index} discarded: the glove went away; it will be re-recorded")
-                if outcome == "stop" or (outcome == "saved" and result.get("stop")):
-                    break
-                if outcome == "ended":
-                    self._say("the glove source ended")
-                    break
+            self._episodes(cfg)
+        except KeyboardInterrupt:  # Ctrl-C or `kill`: what the writer was handed is saved, the rest dropped
+            interrupted = True
         finally:
             self.close()
         saved = self.saved
@@ -219,12 +196,39 @@ class Recorder:
             "episodes_saved": len(saved),
             "total_episodes": self.store.num_episodes + len(saved),  # this process' store: as opened
             "total_frames": self.store.num_frames + sum(s["frames"] for s in saved),
-            "rerecorded": rerecorded,
-            "lost": lost,
+            "rerecorded": self.rerecorded,
+            "lost": self.lost,
+            "interrupted": interrupted,
             "success_rate": round(float(np.mean([s["success"] for s in saved])), 3) if saved else None,
             "log": self.log_rel,
             **self.live.summary(),
         }
+
+    def _episodes(self, cfg: RecordConfig) -> None:
+        """The session's episodes, until ``episodes`` are saved, the user stops or the glove source ends."""
+        recorded, self.rerecorded, self.lost = 0, 0, 0
+        self.glove.open()
+        self._say(
+            f"recording {cfg.episodes} episode(s) of {cfg.task} on {cfg.robot} from {self.glove.name} "
+            f"({'faster than real time' if self.fast else 'real time'}) into {cfg.root_path}"
+        )
+        while recorded < (cfg.episodes if self.plan is None else len(self.plan) + recorded):
+            index = self.store.next_index
+            outcome, result = self._one_episode(index)
+            self._report_saved()
+            if outcome == "saved":
+                recorded += 1
+            elif outcome == "rerecord":
+                self.rerecorded += 1
+                self._say(f"episode {index} discarded: re-recording it")
+            elif outcome == "lost":
+                self.lost += 1
+                self._say(f"episode {index} discarded: the glove went away; it will be re-recorded")
+            if outcome == "stop" or (outcome == "saved" and result.get("stop")):
+                break
+            if outcome == "ended":
+                self._say("the glove source ended")
+                break
 
     def _report_saved(self, wait: bool = False) -> None:
         """Say which episodes the writer process has saved (published) since the last call."""
@@ -275,37 +279,59 @@ class Recorder:
             return self._record(index, seed, obs, start, None if planned is None else planned[2])
 
     def _wait_for_start(self, index: int) -> float | None:
-        """The reset period: ends at the glove's button, → on the keyboard, or after reset_time_s."""
+        """The reset period: ends at the glove's button, → on the keyboard, or ``reset_time_s`` after the glove's
+        first hand pose (the countdown runs only once there is one; until then the view and the terminal say
+        what it waits for, and after NO_POSE_S of waiting the session ends with that, in one line)."""
         g = self.glove
-        if self.fast:
-            if not g.wait_past(float("-inf"), FIRST_SAMPLE_TIMEOUT_S):
-                raise GloverecError(f"no glove frames from {g.name} in {FIRST_SAMPLE_TIMEOUT_S:.0f} s")
+        if self.fast and not g.wait_past(float("-inf"), FIRST_SAMPLE_TIMEOUT_S):
+            raise GloverecError(self._no_pose(FIRST_SAMPLE_TIMEOUT_S))
         if self.demonstrator is None:
             g.buttons.clear()  # a press from before the reset period does not skip it
-        begin = g.now()
         limit = float("inf") if self.demonstrator is not None else self.cfg.reset_time_s
-        wall_end = time.monotonic() + (30.0 if self.demonstrator is not None else self.cfg.reset_time_s + 30.0)
+        begin = None  # glove time of the first pose seen in this reset period
+        waiting_since = state_since = time.monotonic()  # since when it waits at all / for this same thing
+        said = shown = None
         asked = False
         while True:
             g.poll(timeout=0.02)
             self._report_saved()
-            self.live.reset_period(index, None if limit == float("inf") else max(0.0, limit - (g.now() - begin)))
+            waiting = g.waiting_for()
+            if waiting is None and begin is None:
+                begin = g.now()
+            if waiting is None:
+                waiting_since = time.monotonic()
+            if waiting != shown:
+                shown, state_since = waiting, time.monotonic()
+            countdown = None if limit == float("inf") or begin is None else max(0.0, limit - (g.now() - begin))
+            self.live.reset_period(index, countdown, waiting)
+            if waiting is not None and waiting != said and time.monotonic() - state_since > WAITING_NOTE_S:
+                said = waiting
+                self._say(f"waiting for {waiting}")
             button = g.take_button()
             what = self.control.take()
             if what == STOP:
                 return None
-            ready = g.track.newest_s is not None  # raw frames: host fusion's first pose comes after the rest
-            if button is not None and ready:
+            if button is not None and begin is not None:
                 return button
             asked = asked or what == NEXT or button is not None
-            if ready and (asked or g.now() - begin >= limit):
+            if begin is not None and (asked or g.now() - begin >= limit):
                 return g.now()
             if g.finished and g.poll() == 0:
                 return None
-            if time.monotonic() > wall_end and g.track.newest_s is None:
-                raise GloverecError(f"no glove frames from {g.name}: is it connected and sending?")
-            if self.fast and g.track.newest_s is not None:
+            if waiting is not None and time.monotonic() - waiting_since > NO_POSE_S:
+                raise GloverecError(self._no_pose(NO_POSE_S))
+            if self.fast and begin is not None:
                 g.wait_past(g.now() + self.period)  # let glove time advance
+
+    def _no_pose(self, seconds: float) -> str:
+        """Why no episode could start, from what the glove did (frames it sent, what its first pose waits for)."""
+        g = self.glove
+        if g.finished:
+            return f"{g.name} ended after {g.received} frames without a hand pose (waiting for {g.waiting_for()})"
+        if g.received == 0:
+            return f"no glove frames from {g.name} in {seconds:.0f} s: is it connected and sending?"
+        came = f"{g.received} frames came"
+        return f"no hand pose from {g.name} in {seconds:.0f} s ({came}): waiting for {g.waiting_for()}"
 
     def _record(
         self, index: int, seed: int, obs: dict, start: float, frames: int | None = None

@@ -30,6 +30,7 @@ from lerobot.datasets.lerobot_dataset import LeRobotDataset
 from lerobot.datasets.utils import DEFAULT_DATA_FILE_SIZE_IN_MB, DEFAULT_VIDEO_FILE_SIZE_IN_MB
 
 from recorder import GloverecError
+from recorder.dataset_check import check_dataset
 from recorder.record.episode_stats import lerobot_save_speedups
 from recorder.record.sidecar import append_sidecar
 
@@ -144,6 +145,7 @@ class EpisodeStore:
         if not resume and (self.root.exists() or self.root.is_symlink()):  # appeared while we waited
             raise GloverecError(f"{self.root} already exists: pass --resume to add episodes, or choose another --root")
         if resume and self._latest() is not None:
+            check_dataset(self.root)  # a damaged recording: one line, before lerobot reads it or anything changes
             shutil.rmtree(self.work, ignore_errors=True)  # what the interrupted session left
             _clone(self._latest(), self.work, published_info=False)
             self.dataset = LeRobotDataset(repo_id, root=self.work)

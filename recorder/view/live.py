@@ -152,8 +152,8 @@ class _Session:
         now = time.monotonic()
         if now - self._status_at >= STATUS_S:
             self._status_at = now
-            rate = 1.0 / self.glove.track.interval_s(1.0 / self.glove.config.rate_hz)
+            health = self.glove.health()
             self._status = {"phase": f"viewing {self.args.task} on {self.args.robot}", "seed": self.seed,
-                            "glove": {"rate_hz": rate, "up": self.glove.connected},
+                            "glove": {"rate_hz": health.rate_hz, "up": health.up},
                             "keys": ["hand", "next", "reset", "stop"]}  # fmt: skip
         return frame_of(self.u, dict(self._status), pose)

@@ -5,9 +5,10 @@
     next         lift in 1.2 s
     success      2 of 2 so far
     glove        200 Hz, latency p99 7.9 ms, late 0, dropped 0
-    keys         F9 next  F10 record again  F11 zero  F12 stop  F8 hand
+    keys         F9 next  F10 record again  F11 zero  F12 stop  F8 hand   (the web page: → n Enter next, ...)
 
-``lines(status)`` gives (label, value) rows; ``columns(status)`` the two text columns MuJoCo's viewer overlays.
+``lines(status, key_names)`` gives (label, value) rows; ``columns(status)`` the two text columns MuJoCo's viewer
+overlays.
 """
 
 from __future__ import annotations
@@ -16,19 +17,35 @@ from __future__ import annotations
 # the terminal keys do. GLFW key codes.
 KEYS = {297: "hand", 298: "next", 299: "rerecord", 300: "reset", 301: "stop"}  # F8 .. F12
 KEY_NAMES = {"hand": "F8", "next": "F9", "rerecord": "F10", "reset": "F11", "stop": "F12"}
+# The web page's keys: the terminal's (recorder/record/control.py), as the browser names them (KeyboardEvent.key),
+# plus h for the human hand; a browser keeps F11 and F12 for itself.
+WEB_KEYS = {
+    "next": ("ArrowRight", "n", "Enter"),
+    "rerecord": ("ArrowLeft", "r"),
+    "reset": ("z",),
+    "stop": ("Escape", "q"),
+    "hand": ("h",),
+}
+_SHOWN = {"ArrowRight": "→", "ArrowLeft": "←", "Escape": "Esc"}
+WEB_KEY_NAMES = {action: " ".join(_SHOWN.get(k, k) for k in keys) for action, keys in WEB_KEYS.items()}
+TERMINAL_KEY_NAMES = {a: n for a, n in WEB_KEY_NAMES.items() if a != "hand"}  # views without keys of their own
 ACTIONS = {"next": "next", "rerecord": "record again", "reset": "zero", "stop": "stop", "hand": "human hand"}
 
 
-def lines(status: dict) -> list[tuple[str, str]]:
-    """The overlay's rows, in order; rows the status has nothing for are left out."""
+def lines(status: dict, key_names: dict[str, str] | None = None) -> list[tuple[str, str]]:
+    """The overlay's rows, in order; rows the status has nothing for are left out. ``key_names``: how the view
+    showing them names its keys (default: the native view's F-keys)."""
+    key_names = KEY_NAMES if key_names is None else key_names
     rows = []
     if status.get("task"):
         rows.append(("task", str(status["task"])))
     if status.get("episode") is not None:
         ep = f"{status['episode'] + 1} of {status['episodes']}" if status.get("episodes") else str(status["episode"])
         phase = status.get("phase", "")
-        if phase == "reset" and status.get("countdown") is not None:
-            phase = f"reset, starts in {status['countdown']:.1f} s (or the glove's button, F9)"
+        if phase == "reset" and status.get("waiting"):
+            phase = f"reset: waiting for {status['waiting']}"
+        elif phase == "reset" and status.get("countdown") is not None:
+            phase = f"reset, starts in {status['countdown']:.1f} s (or the glove's button, {key_names['next']})"
         elif phase == "recording" and status.get("time_left") is not None:
             phase = f"recording, {status['time_left']:.1f} s left"
         rows.append(("episode", f"{ep}: {phase}" if phase else ep))
@@ -49,13 +66,13 @@ def lines(status: dict) -> list[tuple[str, str]]:
         if not glove.get("up", True):
             health = "DOWN: waiting for the glove"
         rows.append(("glove", health))
-    keys = status.get("keys", list(KEY_NAMES))
+    keys = status.get("keys", list(key_names))
     if keys:
-        rows.append(("keys", "  ".join(f"{KEY_NAMES[k]} {ACTIONS[k]}" for k in keys if k in KEY_NAMES)))
+        rows.append(("keys", "  ".join(f"{key_names[k]} {ACTIONS[k]}" for k in keys if k in key_names)))
     return rows
 
 
 def columns(status: dict) -> tuple[str, str]:
-    """(labels, values): the two columns of MuJoCo's text overlay."""
+    """(labels, values): the two columns of MuJoCo's text overlay (the native view's keys)."""
     rows = lines(status)
     return "\n".join(r[0] for r in rows), "\n".join(r[1] for r in rows)

@@ -73,8 +73,10 @@ def run(
                         rr.log(f"glove/{key}", rr.Scalars(float(glove[key])))
                 if frame.hand:
                     rr.log("glove/joint_angles_deg", rr.Scalars(np.degrees(frame.angles)))
-                rr.log("status", rr.TextDocument("\n".join(f"**{a}** {b}  " for a, b in overlay.lines(frame.status)),
-                                                 media_type="text/markdown"))  # fmt: skip
+                rows = overlay.lines(frame.status, overlay.TERMINAL_KEY_NAMES)  # rerun has no keys: the terminal's
+                rr.log(
+                    "status", rr.TextDocument("\n".join(f"**{a}** {b}  " for a, b in rows), media_type="text/markdown")
+                )
                 if t - last_image >= 1.0 / IMAGE_FPS:
                     last_image = t
                     renderer.update_scene(stage.data, camera=camera, scene_option=opt)

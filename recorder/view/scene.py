@@ -18,6 +18,7 @@ SKIN_RGBA = np.array([0.93, 0.72, 0.58, 1.0], np.float32)
 INVALID_RGBA = np.array([0.9, 0.2, 0.2, 1.0], np.float32)  # a joint the glove did not measure in this sample
 HAND_OFFSET = np.array([0.0, 0.22, 0.0])  # where the human hand's wrist is drawn, from the workspace centre (m)
 BONE_RADIUS = 0.006
+LABEL_LIFT = np.array([0.0, 0.0, 0.09])  # a hand's label floats this far above its wrist (m)
 
 
 class Stage:
@@ -39,6 +40,7 @@ class Stage:
         self.model, self.data = self.env.model, self.env.data
         self.ghost = mujoco.MjData(self.model)
         self.robot_geoms = set(self.env._robot_geoms.tolist())
+        self.robot_shown = not hide_robot
         if hide_robot:
             self.model.geom_rgba[list(self.robot_geoms), 3] = 0.0
         self.workspace = np.array(self.env.workspace, float)
@@ -72,8 +74,11 @@ class Stage:
             return
         if self.show_ghost and self.frame.task.size:
             self._ghost(scn, opt)
+        if self.robot_shown:
+            _label(scn, self.data.mocap_pos[self.env._mocap] + LABEL_LIFT, "robot")
         if self.show_hand and self.frame.hand:
             self._human_hand(scn)
+            _label(scn, self.workspace + HAND_OFFSET + LABEL_LIFT, "your hand (glove)")
 
     def _ghost(self, scn, opt) -> None:
         g = self.ghost
@@ -112,6 +117,18 @@ class Stage:
             mujoco.mjv_connector(geom, mujoco.mjtGeom.mjGEOM_CAPSULE, BONE_RADIUS, a, b)
             geom.segid = -1
             scn.ngeom += 1
+
+
+def _label(scn: mujoco.MjvScene, at, text: str) -> None:
+    """A text label at ``at`` (world, m): an invisible point that MuJoCo's renderer labels."""
+    if scn.ngeom >= scn.maxgeom:
+        return
+    geom = scn.geoms[scn.ngeom]
+    mujoco.mjv_initGeom(geom, mujoco.mjtGeom.mjGEOM_SPHERE, np.full(3, 1e-3), np.asarray(at, float),
+                        np.eye(3).reshape(-1), np.zeros(4, np.float32))  # fmt: skip
+    geom.label = text
+    geom.segid = -1
+    scn.ngeom += 1
 
 
 def _finger_joints(finger: str) -> list[list[int]]:

@@ -1,6 +1,7 @@
 """The web view: for headless machines and remote operators. A page served on 127.0.0.1 (another address only
 when asked: ``--view web:0.0.0.0:8765``) with the live scene rendered offscreen (EGL) as an MJPEG stream, the
-status text, and buttons for next, record again, zero and stop. Each browser is served by its own thread that
+status text, and buttons for next, record again, zero and stop, each also on a key (the terminal's: → n Enter, ←
+r, z, Esc q; h shows or hides the human hand). Each browser is served by its own thread that
 sends the newest frame when it can, so a slow or closed page never holds up the rendering, let alone the
 recording (which runs in another process). The standard library's HTTP server is enough for one page, a
 stream and four buttons on a local network.
@@ -33,11 +34,16 @@ PAGE = """<!doctype html>
 </style></head><body>
 <img id="scene" src="/stream" alt="the scene">
 <table id="status"></table>
-<div><button id="next">next</button><button id="rerecord">record again</button>
-<button id="reset">zero</button><button id="stop">stop</button><button id="hand">human hand</button></div>
+<div>BUTTONS</div>
 <script>
-for (const b of document.querySelectorAll("button"))
-  b.onclick = () => fetch("/key/" + b.id, {method: "POST"});
+const KEYS = KEYMAP;
+const press = (name) => fetch("/key/" + name, {method: "POST"});
+for (const b of document.querySelectorAll("button")) b.onclick = () => press(b.id);
+document.addEventListener("keydown", (e) => {
+  if (e.ctrlKey || e.metaKey || e.altKey || !(e.key in KEYS)) return;
+  e.preventDefault();
+  press(KEYS[e.key]);
+});
 async function status() {
   try {
     const rows = (await (await fetch("/status")).json()).rows;
@@ -50,6 +56,12 @@ async function status() {
 status();
 </script></body></html>
 """
+
+
+PAGE = PAGE.replace(
+    "BUTTONS",
+    "".join(f'<button id="{a}">{overlay.ACTIONS[a]} ({overlay.WEB_KEY_NAMES[a]})</button>' for a in overlay.WEB_KEYS),
+).replace("KEYMAP", json.dumps({key: action for action, keys in overlay.WEB_KEYS.items() for key in keys}))
 
 
 class _Frames:
@@ -98,7 +110,7 @@ def serve(
                 stage.decorate(renderer.scene, opt)
                 buf = io.BytesIO()
                 Image.fromarray(renderer.render()).save(buf, "JPEG", quality=80)
-                frames.put(buf.getvalue(), overlay.lines(last.status))
+                frames.put(buf.getvalue(), overlay.lines(last.status, overlay.WEB_KEY_NAMES))
                 period = pace.period(last.status)
                 if meter is not None:
                     meter.tick()

@@ -17,11 +17,14 @@ class GloverecGloveConfig(TeleoperatorConfig):
     from its status frames); ``calibration_dir``: where gloverec keeps calibrations (default
     $GLOVEREC_CALIBRATION_DIR, else datasets/calibration). ``emulator_mode``, ``emulator_motion``: the emulated
     glove's output (pose, raw, compact, json) and its wearer (gestures, random). ``first_pose_s``: how long
-    ``connect`` waits for the glove's first hand pose."""
+    ``connect`` waits for the glove's first hand pose. ``wearer``: whose hand, the hand profile saved by
+    `gloverec calibrate --wearer NAME` in ``calibration_dir`` (default: the 190 mm reference hand), as `gloverec
+    record --wearer` takes it: retargeting onto a robot hand scales the wearer's fingertips by it."""
 
     port: str = "emulator"
     robot: str = "glovehand"
     retarget: str = "joint"
+    wearer: str | None = None
     glove_id: str | None = None
     emulator_mode: str = "pose"
     emulator_motion: str = "gestures"

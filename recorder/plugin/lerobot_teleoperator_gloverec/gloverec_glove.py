@@ -26,6 +26,7 @@ from recorder.config import ConfigError
 from recorder.glove.config import GloveConfig
 from recorder.glove.glove import Glove, open_glove
 from recorder.hand.pose import HandPose
+from recorder.hand.profile import HandProfile, wearer_profile
 from recorder.paths import calibration_dir
 from recorder.retarget import Retargeter
 from recorder.retarget.motor_map import MotorMap, load_motor_map, motor_map_names
@@ -38,8 +39,8 @@ STALE_MIN_S = 0.05  # a loaded machine delays a healthy glove's frames by tens o
 class _RobotHand:
     """A gloverec robot hand driven through the Retargeter: gloverec_sim's action keys."""
 
-    def __init__(self, robot: str, mode: str):
-        self.retarget = Retargeter(robot, mode, base_rotation=True)
+    def __init__(self, robot: str, mode: str, profile: HandProfile):
+        self.retarget = Retargeter(robot, mode, base_rotation=True, hand_size=profile.size())
         self.names = action_names(self.retarget.robot, base_rotation=True)
 
     def __call__(self, pose: HandPose) -> dict[str, float]:
@@ -47,9 +48,9 @@ class _RobotHand:
         return dict(zip(self.names, action.tolist()))
 
 
-def _target(robot: str, mode: str) -> _RobotHand | MotorMap:
+def _target(robot: str, mode: str, profile: HandProfile) -> _RobotHand | MotorMap:
     if robot in robot_names():
-        return _RobotHand(robot, mode)
+        return _RobotHand(robot, mode, profile)
     if robot in motor_map_names():
         return load_motor_map(robot)
     raise ConfigError(
@@ -68,7 +69,9 @@ class GloverecGlove(Teleoperator):
         self.config = config
         self.glove_config = GloveConfig.parse(config.port, mode=config.emulator_mode)  # a bad port: one line
         self.glove_id = _hex(config.glove_id)
-        self.target = _target(config.robot, config.retarget)
+        # a missing or impossible profile: one line, before any glove opens (motor maps take angles, not sizes)
+        self.profile = wearer_profile(config.wearer, config.calibration_dir)
+        self.target = _target(config.robot, config.retarget, self.profile)
         self.glove: Glove | None = None
         self._action: dict[str, float] | None = None
         self._fresh = 0.0  # host time at which the glove sampled the newest pose taken

@@ -35,7 +35,7 @@ from recorder.hand.motion import Motion  # noqa: E402
 from recorder.retarget import Retargeter  # noqa: E402
 
 ROBOTS = ("glovehand", "shadow")
-TASKS = ("pose", "grasp")
+TASKS = envs.task_names()  # every registered task
 
 
 def _median(fn, n: int, runs: int) -> dict:
@@ -49,9 +49,7 @@ def _median(fn, n: int, runs: int) -> dict:
 
 
 def step_cost(task: str, robot: str, runs: int) -> dict:
-    env = envs.make(task, robot)
-    if task == "pose":  # hold the goal pose after reaching it: keep stepping the whole episode
-        env = envs.make(task, robot, terminate_on_success=False)
+    env = envs.make(task, robot, terminate_on_success=False)  # a whole episode, after success too
     actions = []
     run_episode(env, Retargeter(robot), seed=0, on_step=lambda o, a, i: actions.append(a))
 

@@ -41,7 +41,7 @@ from recorder.emulator import procedure as emulated  # noqa: E402
 from recorder.fusion.block import filter_block  # noqa: E402
 from recorder.fusion.gravity import gain_factor  # noqa: E402
 from recorder.fusion.host import FusionConfig, HostFusion  # noqa: E402
-from recorder.fusion.registry import FILTERS, make_filter  # noqa: E402
+from recorder.fusion.registry import filter_names, make_filter  # noqa: E402
 from recorder.hand import joints  # noqa: E402
 from recorder.hand.kinematics import JOINTS, global_from_relative, relative_quats  # noqa: E402
 from recorder.hand.motion import MotionBlock, SampledMotion  # noqa: E402
@@ -203,7 +203,7 @@ def measure_cost(rates: list[int], seed: int, runs: int) -> dict:
     cost = {}
     for rate in rates:
         d = make_data("gestures", rate, 15.0, seed)
-        for name in FILTERS:
+        for name in filter_names():
             c = cost[f"{name}@{rate}Hz"] = filter_cost(name, rate, runs)
             c["live_us_per_frame"] = live_cost(d, name)
             print(f"cost {name}@{rate}Hz {c}", flush=True)
@@ -214,7 +214,7 @@ def long_run(seed: int, minutes: float = 4.0, rate: int = 200) -> dict:
     """Drift or wander, and is the feedback stable? Every filter on 4 minutes of random motion (the bias keeps
     drifting with temperature): joint and heading RMS error minute by minute, the heading slope over the run."""
     d = make_data("random", rate, minutes * 60.0, seed)
-    return {name: _long_run(d, name, minutes, rate) for name in FILTERS}
+    return {name: _long_run(d, name, minutes, rate) for name in filter_names()}
 
 
 def _long_run(d: dict, name: str, minutes: float, rate: int) -> dict:
@@ -379,7 +379,7 @@ def main(argv=None) -> int:
             case = f"{kind}@{rate}Hz"
             d = make_data(kind, rate, args.seconds, args.seed)
             acc = results["accuracy"][case] = {}
-            for name in FILTERS:
+            for name in filter_names():
                 acc[f"ours_{name}"] = run_ours(d, name, True, args.runs)
                 acc[f"ours_{name}_filter_only"] = run_ours(d, name, False, 1)
                 if name == default:

@@ -213,7 +213,7 @@ def main() -> None:
     p.add_argument("--episodes", type=int, default=50, help="demonstrations per task and robot (<= 50)")
     p.add_argument("--eval-episodes", type=int, default=50)
     p.add_argument("--steps", type=int, default=3000, help="BC training steps")
-    p.add_argument("--tasks", default="pose,grasp")
+    p.add_argument("--tasks", default=",".join(GOALS), help="registered tasks (default: those with a goal here)")
     p.add_argument("--robots", default="glovehand,shadow")
     p.add_argument("--act-steps", type=int, default=1500, help="lerobot-train ACT steps (0: skip ACT)")
     args = p.parse_args()

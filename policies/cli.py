@@ -55,8 +55,8 @@ def add_parsers(subparsers) -> None:
         help="a LeRobot checkpoint (pretrained_model, checkpoint or training output folder), "
         "or 'demonstrator' / 'random' for the scripted demonstrator / random actions",
     )
-    e.add_argument("--task", help="pose or grasp (default: the policy's training task)")
-    e.add_argument("--robot", help="glovehand or shadow (default: the policy's training robot)")
+    e.add_argument("--task", help="a registered task: pose, grasp, ... (default: the policy's training task)")
+    e.add_argument("--robot", help="a robot hand: glovehand, shadow, leap (default: the policy's training robot)")
     e.add_argument("--episodes", type=positive_int, default=50, help="episodes (default 50)")
     e.add_argument(
         "--seed",

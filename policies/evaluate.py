@@ -199,17 +199,19 @@ def consumed_features(cfg) -> dict:
 
 
 def trained_setup(context: dict) -> tuple[str | None, str | None]:
-    """(task, robot) a checkpoint was trained on: what its context says, else, for a dataset recorded on the
-    LeRobot robot gloverec_sim (lerobot-record: no sidecar), read from its feature names: the task from the
-    task's state (goal.* for pose, object.* for grasp), the robot whose actuators are the action's names."""
+    """(task, robot) a checkpoint was trained on, from its training dataset's metadata: our recordings' sidecar
+    (``env_task``, ``robot``), or the robot_type lerobot-record stores for the LeRobot robot gloverec_sim,
+    ``gloverec_sim:TASK:ROBOT`` (lerobot_robot_gloverec.dataset_robot_type). Unknown stays None (the command asks
+    for --task / --robot); an older gloverec_sim dataset's robot is the one whose actuators are its action's names."""
     task, robot = context.get("task"), context.get("robot")
+    kind, _, rest = str(robot or "").partition(":")
+    if kind == "gloverec_sim" and rest:
+        stored_task, _, robot = rest.partition(":")
+        task = task or stored_task
     names = context.get("names") or {}
     if robot not in robot_names() and names.get("action"):
         acts = list(names["action"])
         robot = next((r for r in robot_names() if acts in _action_name_lists(r)), None)
-    if not task and names.get("observation.state"):
-        prefixes = {n.split(".")[0] for n in names["observation.state"]}
-        task = "pose" if "goal" in prefixes else "grasp" if "object" in prefixes else None
     return task, robot
 
 
@@ -218,18 +220,23 @@ def _action_name_lists(robot: str) -> list[list[str]]:
     return [list(action_names(r, base_rotation=b)) for b in (True, False)]
 
 
-def _state_includes_task(agent: PolicyAgent) -> bool:
-    """The policy was trained in LeRobot's layout: the task's state inside observation.state (gloverec_sim)."""
+def _state_includes_task(agent: PolicyAgent, task: str, robot: str) -> bool:
+    """The policy was trained in LeRobot's layout, the task's state inside observation.state (gloverec_sim): its
+    state names hold the task's environment-state names (as the task registry's environment declares them)."""
     names = (agent.context.get("names") or {}).get("observation.state") or []
-    return "observation.environment_state" not in agent.inputs and any(
-        n.startswith(("goal.", "object.")) for n in names
-    )
+    if "observation.environment_state" in agent.inputs or not names:
+        return False
+    env = make_env(task, robot)
+    try:
+        return bool(set(env.unwrapped.environment_state_names) & set(names))
+    finally:
+        env.close()
 
 
-def env_options(agent: PolicyAgent, video: bool) -> dict:
+def env_options(agent: PolicyAgent, video: bool, task: str, robot: str) -> dict:
     """Environment options a policy needs: its control rate, its cameras at its image size, and where it reads
     the task's state."""
-    opts = {"state_includes_task": True} if _state_includes_task(agent) else {}
+    opts = {"state_includes_task": True} if _state_includes_task(agent, task, robot) else {}
     if agent.context.get("fps"):
         opts["control_hz"] = float(agent.context["fps"])
     cams = [k.removeprefix("observation.images.") for k in agent.inputs if k.startswith("observation.images.")]
@@ -382,7 +389,9 @@ def evaluate_checkpoint(
     if not task or not robot:
         missing = " and ".join(f"--{n}" for n, v in (("task", task), ("robot", robot)) if not v)
         raise GloverecError(f"the checkpoint does not say which task and robot it was trained on: pass {missing}")
-    env = make_env(task, robot, render_mode="rgb_array" if video_dir else None, **env_options(agent, bool(video_dir)))
+    env = make_env(
+        task, robot, render_mode="rgb_array" if video_dir else None, **env_options(agent, bool(video_dir), task, robot)
+    )
     try:
         check_features(agent, env, task, robot)
         _warn_seed_overlap(agent.context, seed, episodes)

@@ -51,3 +51,15 @@ def checkout_dir() -> Path | None:
     """The repository checkout this code runs from (firmware sources, build folder), None when installed."""
     root = Path(__file__).resolve().parent.parent
     return root if (root / "firmware" / "CMakeLists.txt").is_file() else None
+
+
+CACHE_ENV = "GLOVEREC_CACHE"
+
+
+def cache_dir() -> Path:
+    """Generated code and compiled kernels (recorder/fusion/dispatch.py): $GLOVEREC_CACHE, else
+    $XDG_CACHE_HOME/gloverec, else ~/.cache/gloverec. Safe to delete: it is made again."""
+    if os.environ.get(CACHE_ENV):
+        return Path(os.environ[CACHE_ENV])
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "gloverec"

@@ -1,9 +1,12 @@
 """The CLI as a user meets it: flags, first lines, one-line errors."""
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
-from conftest import gloverec
+from conftest import cli, gloverec
 from recorder import quat
 from recorder.link.serial_source import SerialSource
 from recorder.protocol import PoseFrame
@@ -51,7 +54,7 @@ def test_emulator_prints_its_port_first_and_exposes_ground_truth(emulator, tmp_p
     assert t["angles"].shape[1] == 20 and t["tips"].shape[1:] == (5, 3)
 
 
-def test_log_then_play_back_through_the_cli(emulator, tmp_path):
+def test_log_then_play_back_through_the_cli(emulator, tmp_path, monkeypatch):
     import json
 
     emu = emulator("--rate", "200", "--mode", "raw")
@@ -68,3 +71,19 @@ def test_log_then_play_back_through_the_cli(emulator, tmp_path):
     bad.write_bytes(b"hello")
     r = gloverec("monitor", "--port", f"mcap:{bad}")
     assert r.returncode == 1 and r.stderr.count("\n") == 1 and "not an MCAP file" in r.stderr
+    # a glove source from outside the package (tests/plugins/replay_source.py, @register_glove_source): every
+    # command that opens a glove takes its KIND:ADDRESS, with its own check of the address
+    from recorder.glove import config
+
+    config.kinds()  # the built-in sources registered, then a copy for this test: the other tests see those only
+    monkeypatch.setattr(config, "_SOURCES", dict(config._SOURCES))
+    monkeypatch.syspath_prepend(str(Path(__file__).parent / "plugins"))
+    monkeypatch.delitem(sys.modules, "replay_source", raising=False)
+    import replay_source  # noqa: F401
+
+    r = cli("monitor", "--port", f"replay:{out}", "--json")
+    assert r.returncode == 0 and json.loads(r.stdout)["samples"] == live["samples"], r.stderr
+    r = cli("monitor", "--port", f"replay:{tmp_path / 'none.mcap'}")
+    assert r.returncode == 1 and "replay:" in r.stderr and "no such log" in r.stderr, r.stderr
+    r = cli("monitor", "--port", "relay:x")
+    assert r.returncode == 1 and "bad glove 'relay:x'" in r.stderr and "replay:FILE" in r.stderr, r.stderr

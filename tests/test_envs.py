@@ -1,5 +1,7 @@
 """Robots and tasks: loading, kinematics, spaces, seeding, clipping, rendering, names."""
 
+from pathlib import Path
+
 import gymnasium as gym
 import mujoco
 import numpy as np
@@ -179,3 +181,31 @@ def test_grasp_randomises_objects():
         seen.add(env.unwrapped.object_shape)
         sizes.add(tuple(np.round(env.unwrapped.object_half, 4)))
     assert seen == {"box", "cylinder", "sphere"} and len(sizes) == 12
+
+
+def test_a_task_from_outside_the_package_records_through_the_cli(tmp_path):
+    """A task is one module (tests/plugins/toy_task.py: its environment, its demonstrator, its instruction, and
+    @register_task) plus one config entry, GLOVEREC_PLUGINS (recorder/plugins.py): a command in a child process
+    lists it, records it with the emulated glove and its demonstrator, and stores its instruction."""
+    import json
+    import os
+    import shutil
+
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    from conftest import gloverec
+
+    shutil.copy(Path(__file__).parent / "plugins" / "toy_task.py", tmp_path / "my_toy_task.py")
+    env = {**os.environ, "GLOVEREC_PLUGINS": "my_toy_task", "PYTHONPATH": str(tmp_path)}
+    r = gloverec("record", "--task", "juggle", "--root", str(tmp_path / "x"), env=env)
+    assert r.returncode == 1 and "valid: grasp, pose, toy_fist" in r.stderr, r.stderr
+    root = tmp_path / "ds"
+    r = gloverec("record", "--task", "toy_fist", "--episodes", "1", "--root", str(root), "--repo-id", "test/toy",
+                 "--json", env=env, timeout=120)  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["success_rate"] == 1.0
+    ds = LeRobotDataset("test/toy", root=root)
+    assert ds.meta.features["observation.environment_state"]["names"] == ["toy.closure"]
+    assert ds[0]["task"] == "make a fist"
+    r = gloverec("record", "--task", "toy_fist", "--root", str(tmp_path / "y"), env={**env, "GLOVEREC_PLUGINS": "nope"})
+    assert r.returncode == 1 and "cannot load the plugin nope ($GLOVEREC_PLUGINS)" in r.stderr, r.stderr

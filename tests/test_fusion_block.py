@@ -13,7 +13,7 @@ import pytest
 
 from recorder.emulator import procedure as emulated
 from recorder.emulator.glove import SyntheticGlove
-from recorder.fusion import FILTERS, FusionConfig, HostFusion, filter_block, make_filter
+from recorder.fusion import FusionConfig, HostFusion, filter_block, filter_names, make_filter
 from recorder.protocol.frames import RawFrame
 
 RATE = 200
@@ -40,7 +40,7 @@ def started_filter(name, accel):
     return f
 
 
-@pytest.mark.parametrize("name", sorted(FILTERS))
+@pytest.mark.parametrize("name", sorted(filter_names()))
 def test_update_sample_by_sample_equals_filter_block(name, motion):
     gyro, accel, mask, dt = motion
     live, block = started_filter(name, accel), started_filter(name, accel)
@@ -56,7 +56,7 @@ def test_update_sample_by_sample_equals_filter_block(name, motion):
         np.testing.assert_array_equal(a[300:700, DEAD], a[299:699, DEAD])  # the dead IMU held its state
 
 
-@pytest.mark.parametrize("name", sorted(FILTERS))
+@pytest.mark.parametrize("name", sorted(filter_names()))
 def test_state_and_load_state_carry_a_filter_over(name, motion):
     """A checkpoint (``state``) loaded into a new filter continues exactly where the old one stopped (the
     complementary filter's median windows, the relative filter's pairs and roots included)."""
@@ -110,7 +110,7 @@ def _fusion(name, calibration):
 FIELDS = ("quats", "angles", "valid", "flags", "accel_error", "trust", "bias_change", "constraint", "heading")
 
 
-@pytest.mark.parametrize("name", sorted(FILTERS))
+@pytest.mark.parametrize("name", sorted(filter_names()))
 def test_process_frame_by_frame_equals_process_block(name, recording):
     calibration, raw, t_long, ok = recording
     t = t_long & 0xFFFFFFFF  # what the glove sends
@@ -137,11 +137,11 @@ def test_process_frame_by_frame_equals_process_block(name, recording):
 PLAIN = """
 import sys
 import numpy as np
-from recorder.fusion import FILTERS, HostFusion, filter_block, kernels, make_filter
-assert not hasattr(kernels.mahony_step, "py_func")  # not compiled
+from recorder.fusion import HostFusion, filter_block, filter_names, make_filter, mahony
+assert not hasattr(mahony.mahony_step, "py_func")  # not compiled
 d = np.load(sys.argv[1])
 out = {}
-for name in FILTERS:
+for name in filter_names():
     f = make_filter(name)
     f.reset(d["accel"][0])
     out[name] = filter_block(f, d["gyro"], d["accel"], d["dt"], d["mask"])
@@ -165,9 +165,35 @@ def test_the_kernels_run_as_plain_python(motion, recording, tmp_path):
     )
     assert done.returncode == 0, done.stderr[-3000:]
     plain = np.load(tmp_path / "out.npz")
-    for name in FILTERS:
+    for name in filter_names():
         f = make_filter(name)
         f.reset(accel[0])
         np.testing.assert_allclose(plain[name], filter_block(f, gyro, accel, dt, mask), rtol=0, atol=1e-12)
     quats = HostFusion().process_block(raw[:25], t_long[:25], ok[:25]).quats
     np.testing.assert_allclose(plain["host"], quats, rtol=0, atol=1e-12)
+
+
+def test_a_filter_from_outside_the_package_runs_in_host_fusion(recording, monkeypatch):
+    """A filter is one module (tests/plugins/gyro_only.py: settings, class, step kernel, @register_filter): the
+    pipeline and the block loop are generated around its step, so HostFusion, filter_block and the fusion config
+    take it by name without any other file knowing it."""
+    from recorder.fusion import registry
+
+    registry.filter_names()  # the built-in filters registered, then a copy for this test: the others see those only
+    monkeypatch.setattr(registry, "_FILTERS", dict(registry._FILTERS))
+    monkeypatch.syspath_prepend(str(Path(__file__).parent / "plugins"))
+    monkeypatch.delitem(sys.modules, "gyro_only", raising=False)
+    import gyro_only  # noqa: F401  (registers "gyro_only")
+
+    assert "gyro_only" in filter_names()
+    _, raw, t_us, ok = recording
+    config = FusionConfig(filter="gyro_only", filter_settings={"scale": 1.0})
+    fused = HostFusion(config).process_block(raw[:300], t_us[:300], ok[:300])
+    default = HostFusion().process_block(raw[:300], t_us[:300], ok[:300])
+    assert np.all(np.isfinite(fused.angles)) and np.abs(fused.angles - default.angles).max() > 1e-3
+    f = make_filter("gyro_only")
+    gyro = np.full((50, 12, 3), 0.1)
+    q = filter_block(f, gyro, np.zeros((50, 12, 3)), 0.01)
+    np.testing.assert_allclose(2 * np.arccos(q[-1, :, 0]), 50 * 0.01 * 0.1 * np.sqrt(3), rtol=1e-9)
+    with pytest.raises(ValueError, match="unknown setting.*scal"):
+        FusionConfig(filter="gyro_only", filter_settings={"scal": 2.0})

@@ -1,6 +1,6 @@
 """The glove's filter on both sides: the firmware's C++ core (firmware/lib/glove_core/complementary_filter.cpp,
 FilterMode::Inertial, built here with cmake + g++, run by glove_core_cli) and its Python twin (recorder/fusion/
-inertial.py, kernels.inertial_step) give the same bits from the same register counts, dropped samples included.
+inertial.py, inertial_step) give the same bits from the same register counts, dropped samples included.
 And on two real recordings with optical truth (BROAD trials 16, fast translation, and 30, the worst trial of
 every filter measured in bench/fusion_real.py) the host's default fusion, as a recording runs it, and the glove's
 core stay within docs/fusion.md's bounds against VQF (PyPI ``vqf``, by the dataset's authors) run here."""

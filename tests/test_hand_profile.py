@@ -132,7 +132,7 @@ def _drawn_hand(size: HandSize) -> np.ndarray:
     stage.apply(frame_of(stage.env, {"seed": 0}, pose))
     scn = mujoco.MjvScene(stage.model, maxgeom=200)
     stage.decorate(scn, mujoco.MjvOption())
-    bones = [scn.geoms[i] for i in range(scn.ngeom)]
+    bones = [scn.geoms[i] for i in range(scn.ngeom) if not scn.geoms[i].label]  # the labels are text, not bones
     assert len(bones) == 21  # palm to each chain, three per finger, the knuckles
     axes = [np.array(g.mat).reshape(3, 3)[:, 2] * g.size[2] for g in bones]
     return np.concatenate([[np.array(g.pos) - a, np.array(g.pos) + a] for g, a in zip(bones, axes)])

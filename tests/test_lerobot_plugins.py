@@ -59,7 +59,7 @@ def recorded(glove, tmp_path_factory):
 def test_lerobot_record_with_the_glove_and_the_sim_makes_a_plain_lerobot_dataset(recorded):
     ds = LeRobotDataset("test/lerobot_record", root=recorded)
     env = envs.make("pose", "glovehand", state_includes_task=True).unwrapped
-    assert ds.num_episodes == 2 and ds.meta.robot_type == "gloverec_sim" and ds.fps == 30
+    assert ds.num_episodes == 2 and ds.meta.robot_type == "gloverec_sim:pose:glovehand" and ds.fps == 30
     assert ds.meta.features["action"]["names"] == list(env.action_names)
     assert ds.meta.features["observation.state"]["names"] == list(env.state_names)
     assert any(n.startswith("goal.") for n in env.state_names)  # the task's state rides in observation.state
@@ -79,7 +79,7 @@ def test_gloverec_train_and_eval_take_a_lerobot_record_dataset(recorded, tmp_pat
     r = gloverec("train", "--repo-id", "test/lerobot_record", "--root", str(recorded), "--steps", "30",
                  "--out", str(out), "--json", timeout=300)  # fmt: skip
     assert r.returncode == 0, r.stderr
-    # the checkpoint does not name a gloverec task or robot (gloverec_sim's dataset): they come from its names
+    # no sidecar: the task and the robot come from the robot_type lerobot-record stored (gloverec_sim:pose:glovehand)
     r = gloverec("eval", "--policy", str(out), "--episodes", "2", "--json", timeout=300)
     assert r.returncode == 0, r.stderr
     result = json.loads(r.stdout)

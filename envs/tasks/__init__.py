@@ -1,29 +1,29 @@
-"""Tasks by name: ``pose`` (HandPose) and ``grasp`` (HandGrasp); configs in configs/tasks/<name>.yaml."""
+"""Tasks by name, from the task registry (envs/tasks/registry.py): ``pose`` (HandPose) and ``grasp`` (HandGrasp)
+built in, more from plugins; ``make_task(name, robot)`` builds one."""
 
 from __future__ import annotations
 
 from envs.tasks.base import CAMERAS, HandEnv, TaskConfig
 from envs.tasks.hand_grasp import HandGraspConfig, HandGraspEnv
 from envs.tasks.hand_pose import HandPoseConfig, HandPoseEnv
-from recorder.config import ConfigError
-
-TASKS = {"pose": HandPoseEnv, "grasp": HandGraspEnv}
+from envs.tasks.registry import TaskSpec, get_task, register_task, task_names
 
 __all__ = [
     "CAMERAS",
-    "TASKS",
     "HandEnv",
     "HandGraspConfig",
     "HandGraspEnv",
     "HandPoseConfig",
     "HandPoseEnv",
     "TaskConfig",
+    "TaskSpec",
+    "get_task",
     "make_task",
+    "register_task",
+    "task_names",
 ]
 
 
 def make_task(name: str, robot: str = "glovehand", **kwargs) -> HandEnv:
-    """The task ``name`` with ``robot``; unknown names: one-line ValueError listing the valid ones."""
-    if name not in TASKS:
-        raise ConfigError(f"unknown task {name!r}; valid tasks: {', '.join(TASKS)}")
-    return TASKS[name](robot=robot, **kwargs)
+    """The task ``name`` with ``robot`` (unwrapped); an unknown name: one-line ConfigError listing the valid ones."""
+    return get_task(name).env(robot=robot, **kwargs)

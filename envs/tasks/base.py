@@ -55,6 +55,7 @@ class TaskConfig:
     # observation.environment_state, as a LeRobot robot reports every float it has (lerobot_robot_gloverec)
     state_includes_task: bool = False
     weld_timeconst: Annotated[float, Positive] = 0.01  # s; how stiffly the hand base follows its target
+    terminate_on_success: bool = True  # end the episode once the task is done (a live view, a benchmark: False)
 
     @classmethod
     def load(cls, name: str, **overrides):
@@ -81,8 +82,11 @@ def _look_at(pos, target):
 
 
 class HandEnv(gym.Env):
-    """Base of the tasks; subclasses define ``config_class``, ``task_name``, ``_build_task(spec)``,
-    ``_reset_task()``, ``_base_target(t)``, ``_environment_state()`` (+ names) and ``_evaluate()``."""
+    """Base of the tasks; subclasses define ``config_class``, ``_build_task(spec)``, ``_reset_task()``,
+    ``_base_target(t)``, ``_environment_state()`` (+ names), ``_evaluate()`` and ``instruction()``, and register
+    with ``@register_task(name, ...)`` (envs/tasks/registry.py), which sets ``task_name``. Optional view hooks:
+    ``goal_qpos(qpos, goal)`` (a target the live view draws as a ghost) and ``schedule`` ({move: start time}: the
+    view's "lift in 1.2 s")."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
     config_class = TaskConfig
@@ -326,6 +330,14 @@ class HandEnv(gym.Env):
 
     # ------------------------------------------------------------ for subclasses
     environment_state_names: tuple = ()
+
+    def instruction(self) -> str:
+        """The episode's instruction, as a person reads it and a dataset's ``task`` stores it (after ``reset``)."""
+        return self.task_name
+
+    def instructions(self) -> tuple[str, ...]:
+        """Every instruction this task's config can draw (a fixed, finite set)."""
+        return (self.task_name,)
 
     def _build_task(self, spec: mujoco.MjSpec) -> None:
         pass

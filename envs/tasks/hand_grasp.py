@@ -21,6 +21,7 @@ import mujoco
 import numpy as np
 
 from envs.tasks.base import HandEnv, TaskConfig
+from envs.tasks.registry import register_task
 from recorder import quat
 from recorder.config import NonNegative, Positive
 
@@ -65,9 +66,9 @@ class HandGraspConfig(TaskConfig):
         return self.descend_s + self.close_s + self.lift_s + (self.tilt_s if tilts else 0.0)
 
 
+@register_task("grasp", env_id="gloverec/HandGrasp-v0", demonstrator="recorder.demonstrator.grasp:GraspDemonstrator")
 class HandGraspEnv(HandEnv):
     config_class = HandGraspConfig
-    task_name = "grasp"
     workspace = (0.0, 0.0, 0.10)
     environment_state_names = (
         "object.x",
@@ -224,3 +225,9 @@ class HandGraspEnv(HandEnv):
 
     def _info(self, success: bool) -> dict:
         return {**super()._info(success), "object": self.object_shape}
+
+    def instruction(self) -> str:
+        return f"grasp the {self.object_shape} and keep holding it"
+
+    def instructions(self) -> tuple[str, ...]:
+        return tuple(f"grasp the {shape} and keep holding it" for shape in self.config.shapes)

@@ -21,6 +21,7 @@ import numpy as np
 from pydantic import AfterValidator
 
 from envs.tasks.base import HandEnv, TaskConfig
+from envs.tasks.registry import register_task
 from recorder import quat
 from recorder.config import ConfigError, NonNegative, Positive
 from recorder.hand.gestures import GESTURES
@@ -50,12 +51,16 @@ class HandPoseConfig(TaskConfig):
     tolerance_deg: Annotated[float, Positive] = 8.0
     hold_s: Annotated[float, NonNegative] = 0.5
     start_noise_deg: Annotated[float, NonNegative] = 3.0  # joint noise of the starting (open) pose
-    terminate_on_success: bool = True
 
 
+@register_task(
+    "pose",
+    env_id="gloverec/HandPose-v0",
+    demonstrator="recorder.demonstrator.pose:PoseDemonstrator",
+    live={"episode_s": 1e9, "terminate_on_success": False},  # `gloverec view`: one scene until "next"
+)
 class HandPoseEnv(HandEnv):
     config_class = HandPoseConfig
-    task_name = "pose"
     workspace = (0.0, 0.0, 0.25)
 
     def __init__(self, robot: str = "glovehand", render_mode=None, config=None, **overrides):
@@ -139,3 +144,13 @@ class HandPoseEnv(HandEnv):
 
     def _info(self, success: bool) -> dict:
         return {**super()._info(success), "goal": self.goal_name}
+
+    def instruction(self) -> str:
+        return self.instruction_for(self.goal_name)
+
+    def instructions(self) -> tuple[str, ...]:
+        return tuple(self.instruction_for(g) for g in self.config.gestures)
+
+    @staticmethod
+    def instruction_for(gesture: str) -> str:
+        return f"make the {gesture.replace('_', ' ')} gesture"

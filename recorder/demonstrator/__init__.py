@@ -1,30 +1,45 @@
 """Scripted demonstrators: human-like hand motion that solves a task, as a Motion-like object.
 
-``make_demonstrator(task)`` -> an object with ``plan(env, seed) -> DemoMotion`` for a reset env of that task.
+``make_demonstrator(task)`` -> an object with ``plan(env, seed) -> DemoMotion`` for a reset env of that task: the
+demonstrator the task registry (envs/tasks/registry.py) names.
 A DemoMotion drives a Retargeter directly, or a SyntheticGlove / the glove emulator, so that demonstrations
 carry the glove's sensor noise and latency through the whole stack. ``rollout`` runs and scores them.
 """
 
 from __future__ import annotations
 
+import importlib
+
+from envs.tasks.registry import get_task
 from recorder.demonstrator.grasp import GraspDemoConfig, GraspDemonstrator
 from recorder.demonstrator.motion import DemoMotion
 from recorder.demonstrator.pose import PoseDemoConfig, PoseDemonstrator
 
-DEMONSTRATORS = {"pose": PoseDemonstrator, "grasp": GraspDemonstrator}
-
 __all__ = [
-    "DEMONSTRATORS",
     "DemoMotion",
     "GraspDemoConfig",
     "GraspDemonstrator",
     "PoseDemoConfig",
     "PoseDemonstrator",
+    "demonstrator_class",
     "make_demonstrator",
 ]
 
 
+def demonstrator_class(task: str) -> type:
+    """The scripted demonstrator the task registry names for ``task`` (a class, or "module:Class" imported here);
+    a task without one, or an unknown task: one-line ConfigError."""
+    from recorder.config import ConfigError
+
+    spec = get_task(task)
+    found = spec.demonstrator
+    if found is None:
+        raise ConfigError(f"task {task!r} has no scripted demonstrator: record it with a glove")
+    if isinstance(found, str):
+        module, _, name = found.partition(":")
+        found = getattr(importlib.import_module(module), name)
+    return found
+
+
 def make_demonstrator(task: str):
-    if task not in DEMONSTRATORS:
-        raise ValueError(f"no demonstrator for task {task!r}; valid tasks: {', '.join(DEMONSTRATORS)}")
-    return DEMONSTRATORS[task]()
+    return demonstrator_class(task)()

@@ -31,8 +31,9 @@ import numpy as np
 from recorder import quat
 from recorder.hand.kinematics import N_JOINTS
 from recorder.hand.motion import MotionBlock, SampledMotion, min_jerk
+from recorder.paths import checkout_dir
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = checkout_dir() or Path.cwd()  # installed from a wheel: there are no firmware sources to build
 FIRMWARE_DIR = REPO / "firmware"
 BUILD_DIR = REPO / "build" / "firmware"
 MODES = ("raw", "pose", "json", "compact")  # recorder.protocol.Mode values 0..3

@@ -5,8 +5,9 @@ own axes into the world frame (z up), gyro in rad/s in the IMU's axes, accelerom
 (+1 on z when the IMU lies flat and still). ``dt`` in seconds, a scalar or one value per IMU. ``mask`` (n,) bool
 selects the IMUs that take part in a call; the others keep their state untouched (a dead IMU is not fused).
 
-A filter is its settings, its state arrays and two entries into its numba kernels (recorder/fusion/kernels.py):
-``update`` (one sample, the step kernel) and ``block`` (T samples, the block loop over the same step kernel).
+A filter is its settings, its state arrays and its numba step kernel, registered together (recorder/fusion/
+registry.py): ``update`` runs the step on one sample, ``block`` the loop generated around the same step over T
+samples (recorder/fusion/dispatch.py).
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ class Filter:
     """Base of the glove filters: ``q`` (n, 4), ``bias`` (n, 3) rad/s (the filter's own gyro bias estimate,
     zero for filters without one), ``reset``, ``observe``, ``update`` and ``block``."""
 
-    name = "filter"
+    name = "filter"  # set by register_filter, with ``spec`` (the registry's FilterSpec)
     STATE = ("q", "bias")  # the state arrays by name (``state``, ``load_state``)
 
     def __init__(self, n: int):
@@ -50,14 +51,27 @@ class Filter:
         self.q[m] = attitude_from_gravity(np.asarray(accel, float).reshape(self.n, 3)[m])
         self.bias[m] = 0.0
 
+    def kernel_state(self) -> tuple:
+        """The filter's state arrays other than ``q`` and ``bias``, as its step kernel takes them (``state``)."""
+        return ()
+
     def update(self, gyro, accel, dt, mask=None) -> np.ndarray:
         """One step for the masked IMUs (the filter's step kernel); returns ``q``."""
-        raise NotImplementedError
+        sample = self._sample(gyro, accel, dt, mask)
+        self.spec.step(self.q, self.bias, self.kernel_state(), *sample, self.kernel_params())
+        return self.q
 
     def block(self, gyro, accel, dt, mask, out) -> None:
-        """T steps (the filter's block kernel): gyro, accel (T, n, 3), dt (T, n), mask (T, n) bool, all C contiguous;
-        q after each step into out (T, n, 4). ``filter_block`` prepares the arguments."""
-        raise NotImplementedError
+        """T steps (the block loop around the step kernel, recorder/fusion/dispatch.py): gyro, accel (T, n, 3), dt
+        (T, n), mask (T, n) bool, all C contiguous; q after each step into out (T, n, 4). ``filter_block``
+        prepares the arguments."""
+        from recorder.fusion.dispatch import loops  # generated per filter, once per process
+
+        loops(self.spec).block(self.q, self.bias, self.kernel_state(), self.kernel_params(), gyro, accel, dt, mask, out)
+
+    def kernel_params(self) -> np.ndarray:
+        """``params()`` as the step kernel takes them."""
+        return np.array(self.params(), float)
 
     def _sample(self, gyro, accel, dt, mask):
         """One sample as the step kernels take it: gyro, accel (n, 3), dt (n,), mask (n,) bool."""

@@ -1,8 +1,8 @@
 """Filter a whole recording in one call: ``filter_block(filt, gyro, accel, dt)`` with gyro, accel (T, n, 3)
 returns the orientations (T, n, 4) after every sample and leaves ``filt`` in its final state, exactly as T calls
-of ``filt.update`` would: both run the filter's step kernel (recorder/fusion/kernels.py), here inside its block
-loop. dt: a scalar, (T,) or (T, n); mask: None, (T,) int bit masks or (T, n) bool. Non-finite samples must be
-masked out (HostFusion flags and masks them), as for ``update``.
+of ``filt.update`` would: both run the filter's step kernel, here inside the block loop generated around it
+(recorder/fusion/dispatch.py). dt: a scalar, (T,) or (T, n); mask: None, (T,) int bit masks or (T, n) bool.
+Non-finite samples must be masked out (HostFusion flags and masks them), as for ``update``.
 """
 
 from __future__ import annotations

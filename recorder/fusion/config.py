@@ -5,17 +5,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated
 
 from recorder import config
 from recorder.config import STRICT, ConfigError, NonNegative, Positive
 from recorder.fusion.bias import BiasSettings
-from recorder.fusion.registry import FILTERS, settings_for
-
-PARENT_SHARE = {"complementary": 0.0, "mahony": 0.5, "relative": 0.0, "madgwick": 0.5, "inertial": 0.5}
-# Madgwick's normalised gradient step does not pull a tilt back in proportion to its error, so a bias learned
-# wrongly from the joints lingers: it learns from them more slowly (a 4-minute run ran away at 0.5).
-HEADING_BIAS_RATE = {"complementary": 1.0, "mahony": 1.0, "relative": 1.0, "madgwick": 0.2, "inertial": 1.0}
+from recorder.fusion.registry import get_filter, settings_for
 
 
 @dataclass
@@ -25,7 +20,7 @@ class FusionConfig:
 
     __pydantic_config__ = STRICT
 
-    filter: Literal["inertial", "complementary", "mahony", "relative", "madgwick"] = "inertial"
+    filter: str = "inertial"  # a registered filter (recorder/fusion/registry.py): inertial, complementary, mahony, ...
     filter_settings: dict = field(default_factory=dict)
     rate_hz: Annotated[float, Positive] = 200.0  # nominal sensing rate (calibration recordings given without times)
     max_dt_s: Annotated[float, Positive] = 0.05  # longest gap integrated in one step (as the firmware)
@@ -33,22 +28,24 @@ class FusionConfig:
     bias: BiasSettings = field(default_factory=BiasSettings)
     heading_rate: Annotated[float, NonNegative] = 2.0  # 1/s: joint-constraint heading feedback into C (0: off)
     heading_bias_rate: Annotated[float, NonNegative] | None = None  # 1/s^2: the same into the bias tracker
-    # (None: per filter)
+    # (None: the filter's, registered with it)
     parent_share: Annotated[float, NonNegative] | None = None  # share of a joint's heading error corrected on
-    # the parent's side (None: PARENT_SHARE[filter]; the relative filter composes children from parents: 0)
+    # the parent's side (None: the filter's; the relative filter composes children from parents: 0)
     min_visibility: Annotated[float, NonNegative] = 0.3  # a joint feeds back only when it sees this much of a
     # heading change
     limits: bool = True  # clamp joint angles to the anatomical limits
 
     def __post_init__(self):
-        if self.filter not in FILTERS:
-            raise ConfigError(f"unknown filter {self.filter!r}; valid filters: {', '.join(FILTERS)}")
+        try:
+            spec = get_filter(self.filter)
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
         if isinstance(self.bias, dict):
             self.bias = BiasSettings(**self.bias)
         if self.parent_share is None:
-            self.parent_share = PARENT_SHARE[self.filter]
+            self.parent_share = spec.parent_share
         if self.heading_bias_rate is None:
-            self.heading_bias_rate = HEADING_BIAS_RATE[self.filter]
+            self.heading_bias_rate = spec.heading_bias_rate
         try:
             settings_for(self.filter, **self.filter_settings)  # unknown settings: an error now, not later
         except ValueError as exc:

@@ -31,6 +31,7 @@ from recorder import quat
 from recorder.fusion import pipeline
 from recorder.fusion.bias import BiasTracker
 from recorder.fusion.config import FusionConfig
+from recorder.fusion.dispatch import loops
 from recorder.fusion.quality import NONFINITE, InputCheck
 from recorder.fusion.registry import make_filter
 from recorder.hand import calibration as cal, joints
@@ -123,7 +124,7 @@ def _joint_imus() -> list[tuple[int, ...]]:
 
 
 JOINT_IMUS = _joint_imus()
-_TABLES = pipeline.hand_tables()
+_TABLES = tuple(pipeline.hand_tables().values())  # the order frame_out's ``tables`` takes (+ use_limits)
 _JOINT_IMU_MASK = np.zeros((N_JOINTS, N_IMUS), bool)
 for _j, _imus in enumerate(JOINT_IMUS):
     _JOINT_IMU_MASK[_j, list(_imus)] = True
@@ -135,8 +136,7 @@ class HostFusion:
         self.calibration = calibration or cal.GloveCalibration()
         c = self.config
         self.filter = make_filter(c.filter, N_IMUS, **c.filter_settings)
-        own_bias = c.filter in ("mahony", "relative")
-        self.tracker = BiasTracker(N_IMUS, c.bias, use_gravity=not own_bias)
+        self.tracker = BiasTracker(N_IMUS, c.bias, use_gravity=not self.filter.spec.own_bias)
         self.check = InputCheck(N_IMUS)
         self.C = np.tile(quat.IDENTITY, (N_IMUS, 1))
         self.heading = np.zeros(N_IMUS)
@@ -294,92 +294,19 @@ class HostFusion:
         self.C[new] = cal.reference(self.filter.q, self.calibration.mounts, self.reference_angles)[new]
 
     def _run(self, k0, k1, accel, gyro, t_us, fuse, out) -> None:
-        """Frames k0..k1 through pipeline.run, the state arrays updated in place and the outputs into ``out``."""
+        """Frames k0..k1 through the pipeline (the loop generated around the filter's step, recorder/fusion/
+        dispatch.py), the state arrays updated in place and the outputs into ``out``."""
         c, f, tr = self.config, self.filter, self.tracker
-        kind = pipeline.KINDS[c.filter]
-        if kind == 0:
-            buf, head, count, gain = f.buf, f.head, f.count, f.gain
-        else:
-            buf, head, count, gain = (
-                np.zeros((N_IMUS, 1, 3)),
-                np.zeros(N_IMUS, np.int64),
-                np.zeros(N_IMUS, np.int64),
-                np.zeros(N_IMUS),
-            )
-        if kind == 3:
-            rel, root_q, root_bias, parents, order = f.rel, f.root_q, f.root_bias, f.parents, f.order
-        else:
-            rel, root_q, root_bias = np.zeros((N_IMUS, 4)), np.zeros((N_IMUS, 4)), np.zeros((N_IMUS, 3))
-            parents, order = np.full(N_IMUS, -1, np.int64), np.arange(N_IMUS, dtype=np.int64)
-        if kind == 4:
-            qg, qc, lp, nobs = f.qg, f.qc, f.lp, f.nobs
-        else:
-            qg, qc, lp, nobs = (
-                np.zeros((N_IMUS, 4)),
-                np.zeros((N_IMUS, 4)),
-                np.zeros((N_IMUS, 3, 3)),
-                np.zeros(N_IMUS, np.int64),
-            )
-        tab = _TABLES
         sl = slice(k0, k1)
-        pipeline.run(
-            kind,
-            f.q,
-            f.bias,
-            buf,
-            head,
-            count,
-            gain,
-            rel,
-            root_q,
-            root_bias,
-            parents,
-            order,
-            qg,
-            qc,
-            lp,
-            nobs,
-            np.array(f.params(), float),
-            bool(getattr(f.settings, "rotate_parent_rate", True)),
-            tr.b,
-            tr.still_for,
-            tr.params(),
-            tr.use_gravity,
-            c.track_bias,
-            self.C,
-            self.heading,
-            self.last_t,
-            self.last_gyro,
-            self.missed,
-            np.ascontiguousarray(quat.conj(self.calibration.mounts)),
-            c.heading_rate,
-            c.heading_bias_rate,
-            c.max_dt_s,
-            c.parent_share,
-            c.min_visibility,
-            tab["imu_seg"],
-            tab["parents"],
-            tab["parent_imu"],
-            tab["kind"],
-            tab["flex"],
-            tab["abd"],
-            tab["rest"],
-            tab["limits"],
-            tab["pip"],
-            tab["dip"],
-            c.limits,
-            np.ascontiguousarray(accel[sl]),
-            np.ascontiguousarray(gyro[sl]),
-            np.ascontiguousarray(t_us[sl]),
-            np.ascontiguousarray(fuse[sl]),
-            out.quats[sl],
-            out.angles[sl],
-            out.accel_error[sl],
-            out.trust[sl],
-            out.bias_change[sl],
-            out.constraint[sl],
-            out.heading[sl],
-        )
+        host = (tr.b, tr.still_for, tr.params(), bool(tr.use_gravity), bool(c.track_bias), self.C, self.heading,
+                self.last_t, self.last_gyro, self.missed, np.ascontiguousarray(quat.conj(self.calibration.mounts)),
+                float(c.heading_rate), float(c.heading_bias_rate), float(c.max_dt_s), float(c.parent_share),
+                float(c.min_visibility))  # fmt: skip
+        inputs = tuple(np.ascontiguousarray(x[sl]) for x in (accel, gyro, t_us, fuse))
+        outputs = (out.quats[sl], out.angles[sl], out.accel_error[sl], out.trust[sl], out.bias_change[sl],
+                   out.constraint[sl], out.heading[sl])  # fmt: skip
+        tables = (*_TABLES, bool(c.limits))
+        loops(f.spec).run(f.q, f.bias, f.kernel_state(), f.kernel_params(), host, tables, inputs, outputs)
 
 
 _COMPILED: set[str] = set()  # filters whose kernels this process has compiled or loaded from numba's cache

@@ -1,5 +1,7 @@
-"""The host pipeline, steps 3-7 of recorder/fusion/host.py's docstring, for a block of frames in one call (one
-frame live): the one implementation HostFusion runs, on the filters' step kernels (recorder/fusion/kernels.py)."""
+"""The host pipeline, steps 3-7 of recorder/fusion/host.py's docstring, per frame: ``frame_in`` (step 3) before the
+filter's step kernel (step 4) and ``frame_out`` (steps 5-7) after it. The loop over a block of frames that calls
+them, with the filter's step between, is generated per filter (recorder/fusion/dispatch.py): the one
+implementation HostFusion runs, for one frame live and for a recording."""
 
 from __future__ import annotations
 
@@ -13,8 +15,6 @@ from recorder.fusion.kernels import _mul, _normalize, _rotate
 from recorder.hand import joints
 from recorder.hand.kinematics import DIP, DIP_PER_PIP, LIMITS, PIP, REST
 from recorder.hand.skeleton import JOINT_MAP, N_SEGMENTS, PARENTS
-
-KINDS = {"complementary": 0, "mahony": 1, "madgwick": 2, "relative": 3, "inertial": 4}
 
 
 def hand_tables():
@@ -212,181 +212,90 @@ def hand_step(
 
 
 @njit(cache=True)
-def run(
-    kind_id,
-    q,
-    fbias,
-    buf,
-    head,
-    count,
-    gain,
-    rel,
-    root_q,
-    root_bias,
-    parents,
-    order,
-    qg,
-    qc,
-    lp,
-    nobs,
-    fp,
-    rotate_parent,
-    b,
-    still_for,
-    bp,
-    use_gravity,
-    track_bias,
-    C,
-    heading,
-    last_t,
-    last_g,
-    missed,
-    minv,
-    heading_rate,
-    heading_bias_rate,
-    max_dt,
-    share,
-    min_vis,
-    tab_imu_seg,
-    tab_parents,
-    tab_parent_imu,
-    tab_kind,
-    tab_flex,
-    tab_abd,
-    tab_rest,
-    tab_limits,
-    tab_pip,
-    tab_dip,
-    use_limits,
-    accel,
-    gyro,
-    t_us,
-    fuse,
-    o_quats,
-    o_angles,
-    o_aerr,
-    o_trust,
-    o_bias,
-    o_constraint,
-    o_heading,
-):
-    """Steps 3-7 of host.py over T frames; every state array is updated in place. fp: the filter's settings
-    (complementary: gain, t1, t2; mahony: kp, ki, t1, t2, integral_limit; madgwick: beta, t1, t2; relative: kp,
-    ki, root_kp, root_ki, t1, t2, integral_limit; inertial: tau_s, ramp); bp: BiasSettings (ki, still_rate,
-    still_time_s, still_tau_s, max_bias)."""
-    T, n = gyro.shape[0], gyro.shape[1]
-    srt = K._sorted_windows(buf, count)
-    scratch = np.empty(3)
-    dt = np.empty(n)
-    gc = np.empty((n, 3))
-    kb = np.empty(n)
-    trust = np.empty(n)
-    seg = np.empty((n, 4))
-    g16 = np.empty((N_SEGMENTS, 4))
-    relq = np.empty((N_SEGMENTS, 4))
-    crel = np.empty((N_SEGMENTS, 4))
-    free = np.empty(o_angles.shape[1])
-    psi = np.empty(n)
-    bvec = np.empty((n, 3))
-    for t in range(T):
-        for i in range(n):
-            d = ((t_us[t] - last_t[i]) & 0xFFFFFFFF) * 1e-6
-            dt[i] = min(max(d, 0.0), max_dt)
-            if fuse[t, i]:
-                last_t[i] = t_us[t]
-            an = math.sqrt(accel[t, i, 0] ** 2 + accel[t, i, 1] ** 2 + accel[t, i, 2] ** 2)
-            o_aerr[t, i] = abs(an - 1.0)
-            trust[i] = K._gain_factor(an, 0.1, 0.2)
+def scratch(n, n_joints):
+    """The per-frame work arrays of ``frame_in`` and ``frame_out``: dt (n,), the bias-corrected gyro (n, 3), the
+    accelerometer trust, the bias feedback gains, the segments and the hand model's buffers."""
+    return (
+        np.empty(n),  # 0 dt
+        np.empty((n, 3)),  # 1 gyro, tracked bias removed (what the filter's step takes)
+        np.empty(n),  # 2 trust
+        np.empty(n),  # 3 heading-bias gains
+        np.empty((n, 4)),  # 4 IMU segments in the world
+        np.empty((N_SEGMENTS, 4)),  # 5 all 16 segments
+        np.empty((N_SEGMENTS, 4)),  # 6 parent-relative
+        np.empty((N_SEGMENTS, 4)),  # 7 constrained parent-relative
+        np.empty(n_joints),  # 8 free joint angles
+        np.empty(n),  # 9 heading errors
+        np.empty((n, 3)),  # 10 bias feedback vectors
+    )
+
+
+@njit(cache=True)
+def frame_in(t, host, inputs, outputs, work):
+    """Step 3 of host.py for frame t: dt per IMU from the device clock (at most max_dt; after missed frames the gap
+    is integrated at the mean of the rates at its two ends), the accelerometer's error and trust, the gyro with the
+    tracked bias removed. host: (b, still_for, bp, use_gravity, track_bias, C, heading, last_t, last_g, missed,
+    minv, heading_rate, heading_bias_rate, max_dt, share, min_vis); inputs: (accel, gyro, t_us, fuse)."""
+    b, last_t, last_g, missed, max_dt = host[0], host[7], host[8], host[9], host[13]
+    accel, gyro, t_us, fuse = inputs
+    o_aerr = outputs[2]
+    dt, gc, trust = work[0], work[1], work[2]
+    for i in range(gyro.shape[1]):
+        d = ((t_us[t] - last_t[i]) & 0xFFFFFFFF) * 1e-6
+        dt[i] = min(max(d, 0.0), max_dt)
+        if fuse[t, i]:
+            last_t[i] = t_us[t]
+        an = math.sqrt(accel[t, i, 0] ** 2 + accel[t, i, 1] ** 2 + accel[t, i, 2] ** 2)
+        o_aerr[t, i] = abs(an - 1.0)
+        trust[i] = K._gain_factor(an, 0.1, 0.2)
+        for c in range(3):
+            gc[i, c] = gyro[t, i, c] - b[i, c]
+        if fuse[t, i]:
             for c in range(3):
-                gc[i, c] = gyro[t, i, c] - b[i, c]
-            if fuse[t, i]:  # after missed frames, the gap is integrated at the mean of the rates at its two ends
-                for c in range(3):
-                    g = gc[i, c]
-                    if missed[i]:
-                        gc[i, c] = 0.5 * (g + last_g[i, c])
-                    last_g[i, c] = g
-                missed[i] = False
-            else:
-                missed[i] = True
-        if kind_id == 0:
-            K.complementary_step(
-                q, buf, head, count, gain, srt, scratch, gc, accel[t], dt, fuse[t], fp[0], fp[1], fp[2]
-            )
-        elif kind_id == 1:
-            K.mahony_step(q, fbias, gc, accel[t], dt, fuse[t], fp[0], fp[1], fp[2], fp[3], fp[4])
-        elif kind_id == 2:
-            K.madgwick_step(q, gc, accel[t], dt, fuse[t], fp[0], fp[1], fp[2])
-        elif kind_id == 4:
-            K.inertial_step(q, qg, qc, lp, nobs, gc, accel[t], dt, fuse[t], fp[0], fp[1])
+                g = gc[i, c]
+                if missed[i]:
+                    gc[i, c] = 0.5 * (g + last_g[i, c])
+                last_g[i, c] = g
+            missed[i] = False
         else:
-            K.relative_step(
-                q,
-                rel,
-                root_q,
-                root_bias,
-                fbias,
-                parents,
-                order,
-                gc,
-                accel[t],
-                dt,
-                fuse[t],
-                fp[0],
-                fp[1],
-                fp[2],
-                fp[3],
-                fp[4],
-                fp[5],
-                fp[6],
-                rotate_parent,
-            )
-        if track_bias:
-            K.bias_step(b, still_for, gyro[t], accel[t], q, trust, dt, fuse[t], bp, use_gravity)
+            missed[i] = True
+
+
+@njit(cache=True)
+def frame_out(t, q, fbias, host, tables, inputs, outputs, work):
+    """Steps 5-7 of host.py for frame t, after the filter's step: bias tracking, the hand model, the joint
+    constraints' heading feedback, and the outputs (quats, angles, trust, bias, constraint, heading).
+    tables: (imu_seg, parents, parent_imu, kind, flex, abd, rest, limits, pip, dip, use_limits), hand_tables()."""
+    b, still_for, bp, use_gravity, track_bias, C, heading = host[:7]
+    minv, heading_rate, heading_bias_rate, share, min_vis = host[10], host[11], host[12], host[14], host[15]
+    accel, gyro, t_us, fuse = inputs
+    o_quats, o_angles, o_aerr, o_trust, o_bias, o_constraint, o_heading = outputs
+    dt, trust, kb, seg, g16, relq, crel, free, psi, bvec = (
+        work[0], work[2], work[3], work[4], work[5], work[6], work[7], work[8], work[9], work[10]
+    )  # fmt: skip
+    n = gyro.shape[1]
+    if track_bias:
+        K.bias_step(b, still_for, gyro[t], accel[t], q, trust, dt, fuse[t], bp, use_gravity)
+    for i in range(n):
+        w, x, y, z = _mul(C[i, 0], C[i, 1], C[i, 2], C[i, 3], q[i, 0], q[i, 1], q[i, 2], q[i, 3])
+        seg[i, 0], seg[i, 1], seg[i, 2], seg[i, 3] = _mul(w, x, y, z, minv[i, 0], minv[i, 1], minv[i, 2], minv[i, 3])
+    hand_step(seg, fuse[t], tables[0], tables[1], tables[2], share, min_vis, tables[3], tables[4], tables[5],
+              tables[6], tables[7], tables[8], tables[9], tables[10], g16, relq, crel, free, o_angles[t], o_quats[t],
+              psi, bvec, o_constraint[t])  # fmt: skip
+    if heading_rate > 0.0:
         for i in range(n):
-            w, x, y, z = _mul(C[i, 0], C[i, 1], C[i, 2], C[i, 3], q[i, 0], q[i, 1], q[i, 2], q[i, 3])
-            seg[i, 0], seg[i, 1], seg[i, 2], seg[i, 3] = _mul(
-                w, x, y, z, minv[i, 0], minv[i, 1], minv[i, 2], minv[i, 3]
+            step = heading_rate * dt[i] * psi[i]
+            C[i, 0], C[i, 1], C[i, 2], C[i, 3] = _normalize(
+                *_mul(math.cos(0.5 * step), 0.0, 0.0, math.sin(0.5 * step), C[i, 0], C[i, 1], C[i, 2], C[i, 3])
             )
-        hand_step(
-            seg,
-            fuse[t],
-            tab_imu_seg,
-            tab_parents,
-            tab_parent_imu,
-            share,
-            min_vis,
-            tab_kind,
-            tab_flex,
-            tab_abd,
-            tab_rest,
-            tab_limits,
-            tab_pip,
-            tab_dip,
-            use_limits,
-            g16,
-            relq,
-            crel,
-            free,
-            o_angles[t],
-            o_quats[t],
-            psi,
-            bvec,
-            o_constraint[t],
-        )
-        if heading_rate > 0.0:
+            heading[i] += step
+        if track_bias and heading_bias_rate > 0.0:
             for i in range(n):
-                step = heading_rate * dt[i] * psi[i]
-                C[i, 0], C[i, 1], C[i, 2], C[i, 3] = _normalize(
-                    *_mul(math.cos(0.5 * step), 0.0, 0.0, math.sin(0.5 * step), C[i, 0], C[i, 1], C[i, 2], C[i, 3])
-                )
-                heading[i] += step
-            if track_bias and heading_bias_rate > 0.0:
-                for i in range(n):
-                    kb[i] = heading_bias_rate * dt[i]
-                K.bias_heading(b, q, bvec, kb, fuse[t])
-        for i in range(n):
-            o_trust[t, i] = trust[i]
-            o_bias[t, i] = math.sqrt(
-                (b[i, 0] + fbias[i, 0]) ** 2 + (b[i, 1] + fbias[i, 1]) ** 2 + (b[i, 2] + fbias[i, 2]) ** 2
-            )
-            o_heading[t, i] = heading[i]
+                kb[i] = heading_bias_rate * dt[i]
+            K.bias_heading(b, q, bvec, kb, fuse[t])
+    for i in range(n):
+        o_trust[t, i] = trust[i]
+        o_bias[t, i] = math.sqrt(
+            (b[i, 0] + fbias[i, 0]) ** 2 + (b[i, 1] + fbias[i, 1]) ** 2 + (b[i, 2] + fbias[i, 2]) ** 2
+        )
+        o_heading[t, i] = heading[i]

@@ -5,32 +5,97 @@
     serial:/dev/ttyACM0         a serial device (a bare device path works too)
     udp:9000, udp:HOST:9000     a wireless glove or a bridge, one datagram per frame
     mcap:session.mcap           a session log played back as a glove
+
+Every kind but the emulator is a registered glove source (``@register_glove_source``: its name, whether it is a
+device on a wire that runs in real time, how to check its address and how to open its link); the built-in
+serial, udp and mcap are registered in recorder/glove/sources.py, others come from plugins (recorder/plugins.py;
+docs/recording.md, "Adding a glove source"). This module imports no link: a source's ``opener`` imports what it
+opens when it runs.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Literal
 
 from recorder.config import STRICT, ConfigError, setting
 
-KINDS = ("emulator", "serial", "udp", "mcap")
-SPECS = "emulator, serial:PORT (or a device path), udp:PORT, udp:HOST:PORT or mcap:FILE"
+EMULATOR = "emulator"  # built in: the emulator runs in this process (recorder/glove/glove.py plugs it)
 EMULATOR_MODES = ("pose", "raw", "compact", "json")
 EMULATOR_MOTIONS = ("gestures", "random", "demonstrations", "calibration", "calibration_pinch")
 PROTOCOLS = ("auto", "binary", "json")
 
 
 @dataclass(frozen=True)
+class GloveSource:
+    """A kind of glove that ``--glove KIND:ADDRESS`` opens. ``opener(config, realtime, **link_options)`` returns
+    the unopened link (a recorder.link.base.GloveSource: the frames, a reader thread, reconnects); ``device``:
+    the glove is on a wire and runs in real time (serial, UDP), else it can play faster (a log); ``check``
+    raises ConfigError for a bad address; ``spec``: how it is written, for help and errors."""
+
+    name: str
+    opener: Callable
+    device: bool
+    spec: str
+    check: Callable[[str], None] | None = None
+
+
+_SOURCES: dict[str, GloveSource] = {}
+
+
+def register_glove_source(name: str, *, device: bool, spec: str | None = None, check=None):
+    """Decorator of a source's ``opener(config, realtime, **link_options)``: glove kind ``name``."""
+
+    def register(opener):
+        if name == EMULATOR or (name in _SOURCES and _SOURCES[name].opener.__qualname__ != opener.__qualname__):
+            raise ConfigError(f"glove source {name!r} is registered already")
+        _SOURCES[name] = GloveSource(name, opener, device, spec or f"{name}:ADDRESS", check)
+        return opener
+
+    return register
+
+
+def glove_source(kind: str) -> GloveSource:
+    """The registered source ``kind``; an unknown one: one-line ConfigError listing the kinds."""
+    _load()
+    if kind not in _SOURCES:
+        raise ConfigError(f"unknown glove kind {kind!r}; valid: {', '.join(kinds())}")
+    return _SOURCES[kind]
+
+
+def kinds() -> tuple[str, ...]:
+    _load()
+    return (EMULATOR, *_SOURCES)
+
+
+def specs() -> str:
+    """How gloves are written, for help texts and errors."""
+    _load()
+    return ", ".join([EMULATOR] + [s.spec for s in _SOURCES.values()])
+
+
+def _load() -> None:
+    import recorder.glove.sources  # noqa: F401  (the built-in sources register on import)
+    from recorder.plugins import load_plugins
+
+    load_plugins()
+
+
+SPECS = "emulator, serial:PORT (or a device path), udp:PORT, udp:HOST:PORT, mcap:FILE, or a plugin's KIND:ADDRESS"
+
+
+@dataclass(frozen=True)
 class GloveConfig:
-    """A glove. ``address``: the device path (serial), HOST:PORT (udp) or the log file (mcap). The emulator's
-    ``rate_hz``, output ``mode`` and ``motion``: the wearer moves between ``gestures``, moves ``random``ly,
-    performs the scripted ``demonstrations`` of the task being recorded, or the ``calibration`` steps (with the
-    pinch step: ``calibration_pinch``; None: what the command needs). ``seed`` seeds the emulated motion."""
+    """A glove. ``kind``: emulator or a registered source; ``address``: the device path (serial), HOST:PORT (udp),
+    the log file (mcap). The emulator's ``rate_hz``, output ``mode`` and ``motion``: the wearer moves between
+    ``gestures``, moves ``random``ly, performs the scripted ``demonstrations`` of the task being recorded, or the
+    ``calibration`` steps (with the pinch step: ``calibration_pinch``; None: what the command needs). ``seed``
+    seeds the emulated motion."""
 
     __pydantic_config__ = STRICT
 
-    kind: Literal["emulator", "serial", "udp", "mcap"] = "emulator"
+    kind: str = EMULATOR
     address: str = ""
     baudrate: int = setting(115200, "serial baud rate (USB serial ignores it)")
     protocol: Literal["auto", "binary", "json"] = setting("auto", "wire protocol: binary frames, legacy JSON lines")
@@ -42,15 +107,17 @@ class GloveConfig:
     seed: int = 0
 
     def __post_init__(self):
-        for name, valid in (("kind", KINDS), ("protocol", PROTOCOLS), ("mode", EMULATOR_MODES)):
+        for name, valid in (("protocol", PROTOCOLS), ("mode", EMULATOR_MODES)):
             if getattr(self, name) not in valid:
                 raise ConfigError(f"unknown glove {name} {getattr(self, name)!r}; valid: {', '.join(valid)}")
         if self.motion is not None and self.motion not in EMULATOR_MOTIONS:
             raise ConfigError(f"unknown emulator motion {self.motion!r}; valid: {', '.join(EMULATOR_MOTIONS)}")
-        if self.kind != "emulator" and not self.address:
-            raise ConfigError(f"a {self.kind} glove needs an address: {SPECS}")
-        if self.kind == "udp":
-            self.udp_address()  # checked now, not when it opens
+        if self.kind != EMULATOR:
+            source = glove_source(self.kind)
+            if not self.address:
+                raise ConfigError(f"a {self.kind} glove needs an address: {source.spec}")
+            if source.check is not None:
+                source.check(self.address)  # checked now, not when it opens
         if not self.rate_hz > 0 or not self.baudrate > 0:
             raise ConfigError("the glove's rate and baud rate must be positive")
 
@@ -59,14 +126,14 @@ class GloveConfig:
         """The fields a spec string sets: {"kind": ..., "address": ...}."""
         text = str(spec).strip()
         kind, sep, rest = text.partition(":")
-        if text == "emulator":
-            return {"kind": "emulator", "address": ""}
-        if sep and kind in ("serial", "udp", "mcap"):
-            if not rest:
-                raise ConfigError(f"bad glove {text!r}: expected {SPECS}")
+        if text == EMULATOR:
+            return {"kind": EMULATOR, "address": ""}
+        if sep and kind in kinds():
+            if not rest or kind == EMULATOR:
+                raise ConfigError(f"bad glove {text!r}: expected {specs()}")
             return {"kind": kind, "address": rest}
-        if not text or sep and kind in KINDS:
-            raise ConfigError(f"bad glove {text!r}: expected {SPECS}")
+        if not text or (sep and not text.startswith(("/", "."))):  # KIND:... with an unknown kind
+            raise ConfigError(f"bad glove {text!r}: expected {specs()}")
         return {"kind": "serial", "address": text}  # a bare device path
 
     @classmethod
@@ -77,16 +144,21 @@ class GloveConfig:
         return cls(**{**cls.decode_text(spec), **options})
 
     def __str__(self) -> str:
-        return "emulator" if self.kind == "emulator" else f"{self.kind}:{self.address}"
+        return EMULATOR if self.kind == EMULATOR else f"{self.kind}:{self.address}"
 
     @property
     def is_device(self) -> bool:
         """A glove on a wire (serial, UDP): it runs in real time. The emulator and logs can run faster."""
-        return self.kind in ("serial", "udp")
+        return self.kind != EMULATOR and glove_source(self.kind).device
 
     def udp_address(self) -> tuple[str, int]:
         """(host, port) of a udp glove (host 0.0.0.0 when only the port is given)."""
-        host, _, port = self.address.rpartition(":")
-        if not port.isdigit() or not 0 < int(port) < 65536:
-            raise ConfigError(f"bad UDP glove udp:{self.address}: expected udp:PORT or udp:HOST:PORT")
-        return host or "0.0.0.0", int(port)
+        return udp_address(self.address)
+
+
+def udp_address(address: str) -> tuple[str, int]:
+    """(host, port) of ``udp:PORT`` or ``udp:HOST:PORT`` (host 0.0.0.0 when only the port is given)."""
+    host, _, port = address.rpartition(":")
+    if not port.isdigit() or not 0 < int(port) < 65536:
+        raise ConfigError(f"bad UDP glove udp:{address}: expected udp:PORT or udp:HOST:PORT")
+    return host or "0.0.0.0", int(port)

@@ -20,14 +20,13 @@ from recorder.demonstrator.session import SessionMotion
 from recorder.emulator.emulator import Emulator
 from recorder.emulator.procedure import ProcedureMotion
 from recorder.fusion.session import SessionFusion
-from recorder.glove.config import GloveConfig
+from recorder.glove.config import EMULATOR, GloveConfig, glove_source
 from recorder.glove.track import FrameRate, PoseTrack
 from recorder.hand.kinematics import interpolate_dip
 from recorder.hand.pose import HandPose
 from recorder.link.base import GloveSource
 from recorder.link.serial_source import SerialSource
-from recorder.link.udp_source import UdpSource
-from recorder.log.playback import McapSource, log_calibration
+from recorder.log.playback import log_calibration
 from recorder.protocol import EventCode, EventFrame
 
 TRANSITION_S = 0.8  # the emulated hand's move back to a demonstration's start pose
@@ -78,16 +77,12 @@ class _TakenMotion:
 
 
 def link_for(config: GloveConfig, *, realtime: bool = True, **options) -> GloveSource:
-    """The (unopened) link to a glove on a wire or in a log; ``realtime`` paces log playback at recorded speed."""
+    """The (unopened) link to a glove on a wire or in a log, from its registered source (recorder/glove/config.py);
+    ``realtime`` paces log playback at recorded speed."""
+    if config.kind == EMULATOR:
+        raise GloverecError(f"{config} has no link of its own: open it with open_glove")
     options.setdefault("protocol", config.protocol)
-    if config.kind == "udp":
-        host, port = config.udp_address()
-        return UdpSource(port, host, **options)
-    if config.kind == "mcap":
-        return McapSource(config.address, realtime=realtime, **options)
-    if config.kind == "serial":
-        return SerialSource(config.address, baudrate=config.baudrate, **options)
-    raise GloverecError(f"{config} has no link of its own: open it with open_glove")
+    return glove_source(config.kind).opener(config, realtime, **options)
 
 
 class Glove:
@@ -118,7 +113,7 @@ class Glove:
         self.session: SessionMotion | None = None  # the scripted demonstrations the emulated wearer performs
         self._motion: _TakenMotion | None = None
         self.motion = config.motion or motion
-        if config.kind == "emulator":
+        if config.kind == EMULATOR:
             port = self._plug_emulator(config)
             self.source = SerialSource(port, protocol=config.protocol, **link_options)
         else:
@@ -271,6 +266,23 @@ class Glove:
         if self.fusion.started:
             return "host fusion's first pose"  # the frame that started it gave none: the next one will
         return self.fusion.waiting or f"a hand pose: {self.name} sends frames without one (status, events)"
+
+    def counters(self) -> dict:
+        """What the link counted so far: sequence ``gaps``, rejected frames (``errors``), ``queue_drops`` (frames a
+        slow reader lost); differences of two calls are an episode's."""
+        decode = self.source.decoder.stats.as_dict()
+        return {"gaps": decode["gaps"], "errors": decode["errors"], "queue_drops": self.source.stats().queue_drops}
+
+    def device_time_s(self, pose: HandPose, sample_s: float, t: float) -> float:
+        """The glove's device clock (s, unwrapped) at host time ``t``, from ``pose`` sampled at host time
+        ``sample_s``; -1 for gloves without a clock (legacy JSON)."""
+        if pose.t_us < 0:
+            return -1.0
+        return self.source.clock.unwrap(pose.t_us, pose.rx_ns) - (sample_s - t)
+
+    def tap(self, listener) -> None:
+        """Give ``listener(data, rx_ns, frames)`` every chunk of bytes the link reads (a session log)."""
+        self.source.taps.append(listener)
 
     def health(self) -> GloveHealth:
         return GloveHealth(self.connected, self.rate_hz(), self.received, self.frames, self.waiting_for())

@@ -46,7 +46,7 @@ class RecordConfig:
         flags={"rate_hz": "--glove-rate", "mode": "--glove-mode"},
     )
     robot: str = setting("glovehand", "a robot of configs/robots/ (glovehand, shadow, leap)")
-    task: str = setting("pose", "pose or grasp")
+    task: str = setting("pose", "a registered task: pose, grasp, ... (an unknown name lists them; docs/envs.md)")
     fps: Annotated[int, Positive] = setting(30, "dataset frames per second (the environment's control rate)")
     episodes: Annotated[int, Positive] = setting(10, "episodes to save")
     episode_time_s: Annotated[float, Positive] | None = setting(None, "longest episode (default: the task's)")
@@ -110,11 +110,10 @@ class RecordConfig:
         """What can be checked in a fraction of a second, before lerobot and torch load (seconds): the robot and
         the task by name, the task's settings and the episode length against the task's script. A problem is a
         one-line ConfigError naming the flag."""
-        from envs import check_names  # MuJoCo (0.2 s): not at start-up
-        from envs.tasks import TASKS
+        from envs import check_names, get_task  # MuJoCo (0.2 s): not at start-up
 
         check_names(self.robot, self.task)
-        task = TASKS[self.task].config_class.load(self.task, **self.task_options())
+        task = get_task(self.task).config_class.load(self.task, **self.task_options())
         if self.episode_time_s is not None and self.episode_time_s <= task.min_episode_s():
             raise cfg.ConfigError(
                 f"--episode-time-s {self.episode_time_s:g}: the {self.task} task's script takes "

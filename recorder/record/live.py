@@ -97,8 +97,8 @@ class LiveView:
             self._late_ms = max(stats.jitter_s[-25:], default=0.0) * 1e3
             if stats.latency_s:
                 out["latency_ms_p99"] = float(np.percentile(stats.latency_s, 99) * 1e3)
-            decode, drops = g.source.decoder.stats.as_dict(), g.source.stats().queue_drops
-            out["dropped"] = decode["gaps"] - stats.decode0.get("gaps", 0) + drops - stats.drops0
+            counted = stats.counted(g.counters())
+            out["dropped"] = counted["gaps"] + counted["queue_drops"]
         return out
 
     def _next_move(self) -> str | None:

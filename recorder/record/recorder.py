@@ -12,11 +12,9 @@ either side of the frame time has usually arrived; faster than real time it tick
 
 from __future__ import annotations
 
-import gc
 import json
 import sys
 import time
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -25,9 +23,10 @@ import numpy as np
 import envs
 from recorder import GloverecError
 from recorder.demonstrator import make_demonstrator
-from recorder.glove.glove import Glove, make_glove
+from recorder.glove.glove import make_glove
 from recorder.hand.profile import HandProfile, wearer_profile
 from recorder.log.writer import McapLogger
+from recorder.record.clock import ENDED, LOST, clock_for
 from recorder.record.config import RecordConfig
 from recorder.record.control import NEXT, RERECORD, STOP, Control
 from recorder.record.features import DatasetSchema, Row
@@ -45,47 +44,34 @@ WAITING_NOTE_S = 1.0  # a wait longer than this is said in the terminal (the vie
 class EpisodeStats:
     """What the loop counts during one episode; stored in the episode's sidecar metadata."""
 
+    counters0: dict  # the glove's link counters at the episode's start (Glove.counters)
     frames: int = 0
     held: int = 0  # frames whose glove pose had to be held (the glove was late)
     overruns: int = 0  # ticks that started more than one period late
     jitter_s: list = field(default_factory=list)
     latency_s: list = field(default_factory=list)
     retarget_mm: list = field(default_factory=list)
-    decode0: dict = field(default_factory=dict)
-    drops0: int = 0
 
-    def summary(self, decode: dict, queue_drops: int) -> dict:
+    def counted(self, now: dict) -> dict:
+        """The link's counters over the episode so far."""
+        return {k: now[k] - self.counters0.get(k, 0) for k in now}
+
+    def summary(self, counters: dict) -> dict:
         def pct(xs, q, scale=1e3):
             return round(float(np.percentile(xs, q)) * scale, 3) if len(xs) else None
 
-        gaps = decode["gaps"] - self.decode0.get("gaps", 0)
-        drops = queue_drops - self.drops0
+        c = self.counted(counters)
         return {
             "frames": self.frames,
-            "glove_dropped": gaps + drops,
+            "glove_dropped": c["gaps"] + c["queue_drops"],
             "glove_late": self.held,
-            "glove_errors": decode["errors"] - self.decode0.get("errors", 0),
+            "glove_errors": c["errors"],
             "loop_overruns": self.overruns,
             "jitter_ms_p99": pct(self.jitter_s, 99),
             "latency_ms_p50": pct(self.latency_s, 50),
             "latency_ms_p99": pct(self.latency_s, 99),
             "retarget_error_mm_mean": round(float(np.mean(self.retarget_mm)), 3) if self.retarget_mm else None,
         }
-
-
-@contextmanager
-def _no_gc_pauses(enabled: bool):
-    """Real time: no cyclic garbage collection during an episode's frames (a full collection of this process'
-    heap stalls the loop for tens of milliseconds); what an episode leaves is collected in the reset period.
-    Reference counting still frees everything else at once."""
-    if not enabled or not gc.isenabled():
-        yield
-        return
-    gc.disable()
-    try:
-        yield
-    finally:
-        gc.enable()
 
 
 class Recorder:
@@ -103,7 +89,6 @@ class Recorder:
         self.cfg = cfg
         self.profile = profile if profile is not None else wearer_profile(cfg.wearer)  # missing: one line, first
         self.plan = list(plan) if plan is not None else None
-        self.fast = cfg.is_fast
         self.out = out
         cfg.check()
         try:
@@ -138,7 +123,8 @@ class Recorder:
 
     def _open_session(self, control) -> None:
         cfg = self.cfg
-        self.glove = make_glove(cfg.glove_config, fast=self.fast, motion="demonstrations", say=self._say)
+        self.glove = make_glove(cfg.glove_config, fast=cfg.is_fast, motion="demonstrations", say=self._say)
+        self.clock = clock_for(cfg.is_fast, self.glove, cfg.fps, cfg.glove.rate_hz)
         self.glove.fusion.keep_in(self.store.work, self._say)  # meta/gloverec/calibration.json, before any episode
         write_profile(self.store.work, self.profile)  # meta/gloverec/hand_profile.json: whose hand it was
         self.logger = None
@@ -151,7 +137,6 @@ class Recorder:
             cfg.view, cfg, self.u, self.glove, self.control, self.store.work, self._say, self.profile.size()
         )
         self.period = 1.0 / cfg.fps
-        self.delay_s = 0.0  # real time: set per episode from the glove's measured sample interval
         self._last_line = 0.0
 
     def _open_log(self) -> None:
@@ -171,7 +156,7 @@ class Recorder:
             calibration=self.glove.fusion.record,
         )
         self.glove.fusion.on_record(self.logger.set_calibration)  # a real glove's: once its first frames came
-        self.glove.source.taps.append(self.logger)
+        self.glove.tap(self.logger)
         self.log_rel = f"logs/{name}"
 
     # ------------------------------------------------------------ the session
@@ -180,9 +165,7 @@ class Recorder:
         cfg = self.cfg
         interrupted = False
         self.saved = []
-        if not self.fast:
-            gc.collect()
-            gc.freeze()  # the heap of torch, lerobot, mujoco (~0.3 s to traverse): never looked at again
+        self.clock.session()
         try:
             self._episodes(cfg)
         except KeyboardInterrupt:  # Ctrl-C or `kill`: what the writer was handed is saved, the rest dropped
@@ -210,7 +193,7 @@ class Recorder:
         self.glove.open()
         self._say(
             f"recording {cfg.episodes} episode(s) of {cfg.task} on {cfg.robot} from {self.glove.name} "
-            f"({'faster than real time' if self.fast else 'real time'}) into {cfg.root_path}"
+            f"({self.clock.label}) into {cfg.root_path}"
         )
         while recorded < (cfg.episodes if self.plan is None else len(self.plan) + recorded):
             index = self.store.next_index
@@ -259,7 +242,7 @@ class Recorder:
         planned = self.plan.pop(0) if self.plan else None
         seed = self.cfg.seed + index if planned is None else planned[0]
         obs, info = self.env.reset(seed=seed)
-        self.task_text = self.live.task_text = self.cfg.task_text or task_text(self.cfg.task, info)
+        self.task_text = self.live.task_text = self.cfg.task_text or self.u.instruction()
         self.live.seed = seed
         self.retarget.reset()
         if self.demonstrator is not None:
@@ -273,9 +256,9 @@ class Recorder:
             return ("ended" if self.glove.finished else "stop"), None
         if self.logger is not None:
             self.logger.mark("episode_start", episode=index, seed=seed, glove_time_s=start)
-        if not self.fast:
+        if self.clock.realtime:  # a person is watching (faster than real time, the saved lines say enough)
             self._say(f"episode {index} started: {self.task_text} (→ ends it, ← records it again, Esc stops)")
-        with _no_gc_pauses(enabled=not self.fast):
+        with self.clock.episode():
             return self._record(index, seed, obs, start, None if planned is None else planned[2])
 
     def _wait_for_start(self, index: int) -> float | None:
@@ -283,7 +266,7 @@ class Recorder:
         first hand pose (the countdown runs only once there is one; until then the view and the terminal say
         what it waits for, and after NO_POSE_S of waiting the session ends with that, in one line)."""
         g = self.glove
-        if self.fast and not g.wait_past(float("-inf"), FIRST_SAMPLE_TIMEOUT_S):
+        if not self.clock.first_frames(FIRST_SAMPLE_TIMEOUT_S):
             raise GloverecError(self._no_pose(FIRST_SAMPLE_TIMEOUT_S))
         if self.demonstrator is None:
             g.buttons.clear()  # a press from before the reset period does not skip it
@@ -320,14 +303,15 @@ class Recorder:
                 return None
             if waiting is not None and time.monotonic() - waiting_since > NO_POSE_S:
                 raise GloverecError(self._no_pose(NO_POSE_S))
-            if self.fast and begin is not None:
-                g.wait_past(g.now() + self.period)  # let glove time advance
+            if begin is not None:
+                self.clock.advance()
 
     def _no_pose(self, seconds: float) -> str:
         """Why no episode could start, from what the glove did (frames it sent, what its first pose waits for)."""
         g = self.glove
         if g.finished:
-            return f"{g.name} ended after {g.received} frames without a hand pose (waiting for {g.waiting_for()})"
+            fusion = g.fusion.waiting  # a raw log cut before host fusion could start
+            return f"{g.name} ended after {g.received} frames without a hand pose" + (f" ({fusion})" if fusion else "")
         if g.received == 0:
             return f"no glove frames from {g.name} in {seconds:.0f} s: is it connected and sending?"
         came = f"{g.received} frames came"
@@ -336,63 +320,24 @@ class Recorder:
     def _record(
         self, index: int, seed: int, obs: dict, start: float, frames: int | None = None
     ) -> tuple[str, dict | None]:
-        cfg, g, u = self.cfg, self.glove, self.u
-        src = g.source
-        stats = EpisodeStats(decode0=dict(src.decoder.stats.as_dict()), drops0=src.stats().queue_drops)
-        n_max = frames or int(round(u.config.episode_s * cfg.fps))
-        if not self.fast:  # read 1.5 samples behind, so the sample after the frame time has nearly always come
-            self.delay_s = float(np.clip(1.5 * g.track.interval_s(1.0 / cfg.glove.rate_hz), 1e-3, 0.05))
-        device_start = None
-        host0 = time.monotonic() - (g.now() - start) if not self.fast else time.monotonic()
-        success, outcome, stop_after = False, "saved", False
+        """The episode's frames from glove time ``start`` (``frames`` of them when re-recording a log), until the
+        task ends, the time is up, a key or the glove's button ends it, or the glove goes away."""
+        g, clock = self.glove, self.clock
+        stats = EpisodeStats(g.counters())
+        n_max = frames or int(round(self.u.config.episode_s * self.cfg.fps))
+        clock.start(start)
+        device_start, success, stop_after, host_tick = None, False, False, None
         for k in range(n_max):
             tick = start + k * self.period
-            if self.fast:
-                if not g.wait_past(tick):
-                    outcome = "ended"
-                    break
-                host_tick = time.monotonic()
-            else:
-                host_tick = host0 + k * self.period
-                delay = host_tick - time.monotonic()
-                if delay > 0:
-                    time.sleep(delay)
-                late = time.monotonic() - host_tick
-                stats.jitter_s.append(abs(late))
-                if late > self.period:
-                    stats.overruns += 1
-                g.poll()
-                if not g.connected:
-                    return self._lost(index)
-            at = g.track.at(tick - self.delay_s)
+            host_tick = clock.tick(k, tick, stats)
+            if host_tick == ENDED:
+                break
+            at = g.track.at(clock.pose_time(tick)) if host_tick != LOST else None
             if at is None:
                 return self._lost(index)
-            stats.held += at.held
-            device_time = self._device_time(at, tick - self.delay_s)
-            if device_start is None:
-                device_start = device_time
-            action, rinfo = self.retarget(at.pose.angles, at.pose.palm)
-            latency = None if self.fast else time.monotonic() - at.newest_s  # fast: no wall clock to measure
-            nxt, _, terminated, truncated, info = self.env.step(action)
-            row = Row(
-                obs,
-                info["applied_action"],
-                at.pose,
-                latency,
-                at.age_s,
-                rinfo["tip_error_mean"],
-                host_tick,
-                device_time,
-                self.task_text,
-            )
-            frame = self.schema.frame(row)
-            self.live.recording(index, k, n_max, stats)
-            self.store.add_frame(frame)
-            stats.frames += 1
-            if not self.fast:
-                stats.latency_s.append(latency)
-            stats.retarget_mm.append(rinfo["tip_error_mean"] * 1e3)
-            obs = nxt
+            device_time = clock.device_time(at, clock.pose_time(tick))
+            device_start = device_time if device_start is None else device_start
+            obs, info, done = self._frame(index, k, n_max, obs, at, host_tick, device_time, stats)
             success = bool(info["is_success"])
             self._status_line(index, k, n_max, stats)
             what = self.control.take()
@@ -405,12 +350,36 @@ class Recorder:
             if g.take_button() is not None and self.demonstrator is None and self.plan is None:
                 break  # the glove's button ends the episode (the demonstrator uses it to start one; a re-recorded
                 # log's episodes end where they ended)
-            if terminated or truncated:
+            if done:
                 break
         if stats.frames == 0:
             self.store.discard_episode()
-            return outcome if outcome == "ended" else "stop", None
-        decode = src.decoder.stats.as_dict()
+            return ("ended" if host_tick == ENDED else "stop"), None
+        result = self._saved(index, seed, success, start, device_start, stats)
+        if stop_after:
+            result["stop"] = True
+        return "saved", result
+
+    def _frame(self, index, k, n_max, obs, at, host_tick, device_time, stats):
+        """One dataset frame: the glove's pose retargeted, the env stepped, the observation before the step and
+        the applied action stored. Returns (the next observation, the step's info, whether the task ended)."""
+        stats.held += at.held
+        action, rinfo = self.retarget(at.pose.angles, at.pose.palm)
+        latency = self.clock.latency(at)
+        nxt, _, terminated, truncated, info = self.env.step(action)
+        row = Row(obs, info["applied_action"], at.pose, latency, at.age_s, rinfo["tip_error_mean"], host_tick,
+                  device_time, self.task_text)  # fmt: skip
+        self.live.recording(index, k, n_max, stats)
+        self.store.add_frame(self.schema.frame(row))
+        stats.frames += 1
+        if latency is not None:
+            stats.latency_s.append(latency)
+        stats.retarget_mm.append(rinfo["tip_error_mean"] * 1e3)
+        return nxt, info, terminated or truncated
+
+    def _saved(self, index: int, seed: int, success: bool, start: float, device_start, stats) -> dict:
+        """The episode handed to the writer process, with its sidecar line (and its marks in the session log)."""
+        cfg = self.cfg
         result = {
             "task": self.task_text,
             "seed": seed,
@@ -418,30 +387,22 @@ class Recorder:
             "robot": cfg.robot,
             "env_task": cfg.task,
             "fps": cfg.fps,
-            "glove": g.name,
-            "realtime": not self.fast,
+            "glove": self.glove.name,
+            "realtime": self.clock.realtime,
             "retarget": cfg.retarget,
             "wearer": self.profile.wearer,
             "hand_length_mm": self.profile.hand_length_mm,
             "start_glove_time_s": start,
             "start_device_time_s": device_start,
-            **stats.summary(decode, src.stats().queue_drops),
+            **stats.summary(self.glove.counters()),
         }
         if self.logger is not None:
-            self.logger.mark(
-                "episode_end",
-                episode=index,
-                seed=seed,
-                frames=stats.frames,
-                success=success,
-                device_start_s=device_start,
-            )
+            self.logger.mark("episode_end", episode=index, seed=seed, frames=stats.frames, success=success,
+                             device_start_s=device_start)  # fmt: skip
             self.logger.flush()
-            result["log"] = {"file": self.log_rel, **_log_range(self.logger, start, g, stats.frames, self.period)}
+            result["log"] = {"file": self.log_rel, **self.clock.log_range(self.logger, start, stats.frames)}
         self.writer.submit(self.store.take_episode(), result)
-        if stop_after:
-            result["stop"] = True
-        return "saved", result
+        return result
 
     def _lost(self, index: int) -> tuple[str, None]:
         """The glove vanished mid-episode: drop the episode, wait for the glove, then carry on."""
@@ -455,14 +416,6 @@ class Recorder:
             time.sleep(0.1)
         self.glove.track = type(self.glove.track)()
         return "lost", None
-
-    def _device_time(self, at, t: float) -> float:
-        """The glove's device clock (s, unwrapped) at loop time ``t``; -1 for gloves without one."""
-        if self.fast:
-            return t
-        if at.pose.t_us < 0:
-            return -1.0
-        return self.glove.source.clock.unwrap(at.pose.t_us, at.pose.rx_ns) - (at.newest_s - t)
 
     # ------------------------------------------------------------ reporting
     def _say(self, text: str) -> None:
@@ -480,23 +433,6 @@ class Recorder:
             f"glove {'up' if self.glove.connected else 'DOWN'}"
         )
         self.out.flush()
-
-
-def task_text(task: str, info: dict) -> str:
-    """The episode's instruction, from what the environment drew at reset."""
-    if task == "pose" and "goal" in info:
-        return f"make the {info['goal'].replace('_', ' ')} gesture"
-    if task == "grasp" and "object" in info:
-        return f"grasp the {info['object']} and keep holding it"
-    return task
-
-
-def _log_range(logger, start: float, g: Glove, frames: int, period: float) -> dict:
-    """The episode's span in the MCAP log's time base (ns since the epoch)."""
-    if g.fast:
-        return {"glove_time_start_s": start, "glove_time_end_s": start + frames * period}
-    off = logger.log_time_offset_ns
-    return {"start_ns": int(start * 1e9) + off, "end_ns": int((start + frames * period) * 1e9) + off}
 
 
 PROFILE_FILE = Path("meta") / "gloverec" / "hand_profile.json"  # beside the glove's calibration.json

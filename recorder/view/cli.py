@@ -11,7 +11,7 @@ def add_parser(subparsers):
     v = subparsers.add_parser("view", help="a MuJoCo robot hand follows the glove live")
     v.add_argument("--glove", required=True, help=SPECS)
     v.add_argument("--robot", default="glovehand", help="a robot of configs/robots/ (default: glovehand)")
-    v.add_argument("--task", default="pose", help="pose or grasp (default: pose)")
+    v.add_argument("--task", default="pose", help="a registered task: pose, grasp, ... (default: pose)")
     v.add_argument("--mode", default="joint", choices=("joint", "ik", "pinch"), help="retargeting mode")
     v.add_argument(
         "--wearer",

@@ -24,7 +24,7 @@ import time
 import imageio.v2 as imageio
 import mujoco
 
-from envs.tasks import make_task
+from envs.tasks import get_task, make_task
 from recorder import GloverecError
 from recorder.glove.config import GloveConfig
 from recorder.glove.glove import open_glove
@@ -48,7 +48,7 @@ def run(args) -> int:
     if duration is None and args.video and args.glove == "emulator":
         duration = 10.0
     size = wearer_profile(args.wearer).size()  # a missing or impossible profile: one line, before anything opens
-    overrides = {"episode_s": 1e9, "terminate_on_success": False} if args.task == "pose" else {}
+    overrides = get_task(args.task).live  # the task's endless live scene
     env = make_task(args.task, args.robot, **overrides)
     u = env.unwrapped
     retarget = Retargeter(u.robot, args.mode, base_rotation=u.config.base_rotation, hand_size=size)
@@ -96,8 +96,8 @@ class _Session:
         writer = stage = renderer = None
         if video:
             writer = imageio.get_writer(video, fps=rate, codec="libx264", quality=7, macro_block_size=8)
-            options = {"episode_s": 1e9} if self.args.task == "pose" else {}
-            stage = Stage(self.args.task, self.args.robot, options, hand_size=self.retarget.hand_size)
+            stage = Stage(self.args.task, self.args.robot, get_task(self.args.task).live,
+                          hand_size=self.retarget.hand_size)  # fmt: skip
             renderer = mujoco.Renderer(stage.model, *VIDEO_SIZE)
             camera, opt = free_camera(stage), mujoco.MjvOption()
         steps, start = 0, time.monotonic()

@@ -20,8 +20,9 @@ class SimCameraConfig:
 @RobotConfig.register_subclass("gloverec_sim")
 @dataclass
 class GloverecSimConfig(RobotConfig):
-    """``robot``: a gloverec robot hand (configs/robots: glovehand, shadow, ...); ``task``: pose or grasp;
-    ``cameras``: {name: {width, height}} of the scene's cameras, all the same size (e.g.
+    """``robot``: a gloverec robot hand (configs/robots: glovehand, shadow, ...); ``task``: a registered task
+    (pose, grasp, ...: envs/tasks/registry.py); ``cameras``: {name: {width, height}} of the scene's cameras, all the
+    same size (e.g.
     ``--robot.cameras='{front: {width: 128, height: 128}}'``); ``fps``: the control rate the task steps at, equal
     to lerobot-record's ``--dataset.fps``; ``seed``: the first scene's seed, then +1 at each reset."""
 

@@ -20,13 +20,22 @@ from lerobot.utils.errors import DeviceAlreadyConnectedError, DeviceNotConnected
 import envs
 from lerobot_robot_gloverec.config_gloverec_sim import GloverecSimConfig
 from recorder.config import ConfigError
+from recorder.speech import warn_if_prompts_will_fail
 
 logger = logging.getLogger(__name__)
 
 
+ROBOT_TYPE = "gloverec_sim"
+
+
+def dataset_robot_type(task: str, robot: str) -> str:
+    """``gloverec_sim:TASK:ROBOT``, the robot_type of a lerobot-record dataset of this robot."""
+    return f"{ROBOT_TYPE}:{task}:{robot}"
+
+
 class GloverecSim(Robot):
     config_class = GloverecSimConfig
-    name = "gloverec_sim"
+    name = ROBOT_TYPE
 
     def __init__(self, config: GloverecSimConfig):
         super().__init__(config)
@@ -39,6 +48,9 @@ class GloverecSim(Robot):
             options["image_size"] = sizes.pop()
         self.env = envs.make(config.task, config.robot, **options)  # a wrong name or option: one line
         self.unwrapped = self.env.unwrapped
+        # lerobot-record stores ``robot.name`` as the dataset's robot_type: with the task and the robot in it,
+        # `gloverec eval` reads what a policy trained on the dataset runs in from its metadata (dataset_robot_type)
+        self.name = dataset_robot_type(config.task, config.robot)
         self.cameras = dict(config.cameras)  # lerobot-record sizes its image writer by len(robot.cameras)
         self.seed = config.seed
         self.episodes = 0  # scenes finished since connect
@@ -62,6 +74,7 @@ class GloverecSim(Robot):
     def connect(self, calibrate: bool = True) -> None:
         if self.is_connected:
             raise DeviceAlreadyConnectedError(f"{self} is already connected")
+        warn_if_prompts_will_fail(ROBOT_TYPE)
         self._obs, _ = self.env.reset(seed=self.seed)
         logger.info("%s: %s on %s, scene seed %d", self, self.config.task, self.config.robot, self.seed)
 

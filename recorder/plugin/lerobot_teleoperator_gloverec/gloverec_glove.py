@@ -29,6 +29,7 @@ from recorder.hand.pose import HandPose
 from recorder.hand.profile import HandProfile, wearer_profile
 from recorder.paths import calibration_dir
 from recorder.retarget import Retargeter
+from recorder.speech import warn_if_prompts_will_fail
 from recorder.retarget.motor_map import MotorMap, load_motor_map, motor_map_names
 
 logger = logging.getLogger(__name__)
@@ -96,6 +97,7 @@ class GloverecGlove(Teleoperator):
         ``calibrate``: a glove fused on the host without a saved calibration is calibrated first."""
         if self.is_connected:
             raise DeviceAlreadyConnectedError(f"{self} is already connected")
+        warn_if_prompts_will_fail(self.name)
         self.glove = self._open()
         if calibrate and not self.is_calibrated:
             self.calibrate()

@@ -1,0 +1,28 @@
+"""The built-in glove sources (recorder/glove/config.py ``register_glove_source``): a serial device, a UDP stream,
+an MCAP session log played back. Each opener builds the link it names, unopened; the links load when used."""
+
+from __future__ import annotations
+
+from recorder.glove.config import register_glove_source, udp_address
+
+
+@register_glove_source("serial", device=True, spec="serial:PORT (or a device path)")
+def serial(config, realtime: bool = True, **options):
+    from recorder.link.serial_source import SerialSource
+
+    return SerialSource(config.address, baudrate=config.baudrate, **options)
+
+
+@register_glove_source("udp", device=True, spec="udp:PORT, udp:HOST:PORT", check=udp_address)
+def udp(config, realtime: bool = True, **options):
+    from recorder.link.udp_source import UdpSource
+
+    host, port = udp_address(config.address)
+    return UdpSource(port, host, **options)
+
+
+@register_glove_source("mcap", device=False, spec="mcap:FILE (a session log)")
+def mcap(config, realtime: bool = True, **options):
+    from recorder.log.playback import McapSource
+
+    return McapSource(config.address, realtime=realtime, **options)

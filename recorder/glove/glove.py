@@ -116,6 +116,7 @@ class Glove:
         if config.kind == EMULATOR:
             port = self._plug_emulator(config)
             self.source = SerialSource(port, protocol=config.protocol, **link_options)
+            self.source.lossless = fast  # bulk generation: paced by this reader, nothing lost however slow it is
         else:
             self.source = link_for(config, realtime=not fast, **link_options)
         self.name = str(config)

@@ -61,6 +61,9 @@ class GloveSource:
         self._down_since: float | None = None
         self._down_total = 0.0
         self.finished = False  # the source ended (a log played to its end); read() then returns None at once
+        # a source that runs faster than real time (the emulator's bulk generation): the reader waits for room
+        # in the queue instead of dropping the oldest frames, and the wait backs up to the sender (the pty fills)
+        self.lossless = False
 
     # ------------------------------------------------------------ lifecycle
     def open(self) -> GloveSource:
@@ -77,6 +80,8 @@ class GloveSource:
 
     def close(self) -> None:
         self._stop.set()
+        with self._cond:
+            self._cond.notify_all()  # a reader waiting for room (lossless) wakes and stops
         if self._thread is not None:
             self._thread.join(timeout=2.0)
         if self._connected:
@@ -96,12 +101,17 @@ class GloveSource:
         with self._cond:
             if not self._queue and not self.finished:
                 self._cond.wait_for(lambda: self._queue or self.finished or self._stop.is_set(), timeout)
-            return self._queue.popleft() if self._queue else None
+            if not self._queue:
+                return None
+            if self.lossless:
+                self._cond.notify_all()  # room for a waiting reader
+            return self._queue.popleft()
 
     def drain(self) -> list[Frame]:
         with self._cond:
             frames = list(self._queue)
             self._queue.clear()
+            self._cond.notify_all()
             return frames
 
     def send(self, data: bytes) -> None:
@@ -160,6 +170,9 @@ class GloveSource:
                 self.clock.update(self.clock.unwrap(f.t_us, rx_ns), rx_ns)
         if frames:
             with self._cond:
+                if self.lossless:
+                    room = max(self._queue.maxlen - len(frames), 0)
+                    self._cond.wait_for(lambda: len(self._queue) <= room or self._stop.is_set())
                 overflow = len(self._queue) + len(frames) - self._queue.maxlen
                 if overflow > 0:
                     self._queue_drops += overflow

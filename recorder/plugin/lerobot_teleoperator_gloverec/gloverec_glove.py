@@ -29,8 +29,8 @@ from recorder.hand.pose import HandPose
 from recorder.hand.profile import HandProfile, wearer_profile
 from recorder.paths import calibration_dir
 from recorder.retarget import Retargeter
-from recorder.speech import warn_if_prompts_will_fail
 from recorder.retarget.motor_map import MotorMap, load_motor_map, motor_map_names
+from recorder.speech import warn_if_prompts_will_fail
 
 logger = logging.getLogger(__name__)
 STALE_INTERVALS = 3.0  # no new pose for this many glove intervals (and at least STALE_MIN_S): the pose is stale

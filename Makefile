@@ -1,4 +1,5 @@
-# gloverec: `make demo` runs the main job with the emulated glove, `make test` runs the suite,
+# gloverec: `make demo` runs the main job with the emulated glove, `make test` runs the suite (`make check`: the
+# tests that start no process),
 # `make bench` runs every benchmark in bench/ (each writes bench/results/<name>.json).
 PYTHON ?= python3
 VENV   ?= .venv
@@ -7,7 +8,7 @@ STAMP  := $(VENV)/.installed
 export HF_HUB_OFFLINE ?= 1
 export MUJOCO_GL ?= egl
 
-.PHONY: install demo test bench clean system firmware flash
+.PHONY: install demo test check bench clean system firmware flash
 
 # Debian packages a target needs are installed when missing (CI runs as root with the package registries
 # reachable); when that fails, one line names them and make stops. $(1): a shell test that holds when they are
@@ -77,11 +78,20 @@ flash: firmware
 	exit 1; }
 	teensy_loader_cli --mcu=TEENSY40 -w -v -s $(FW_TEENSY)/$(IMAGE).hex
 
+# The suite: the tests on $(JOBS) xdist workers (more than the 2 cores: many tests wait on real time, an emulator
+# or a child process), then the real-time ones (marked serial: timing, live views) alone, so that no other test's
+# load skews them. `make check`: the tests that start no process, for a quick loop.
+JOBS   ?= 3
+PYTEST := $(PY) -m pytest -q --durations=20
 test: $(STAMP) system firmware
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 	$(VENV)/bin/lint-imports
-	$(PY) -m pytest -q
+	$(PYTEST) -n $(JOBS) --dist loadgroup -m "not serial"
+	$(PYTEST) -m serial
+
+check: $(STAMP)
+	$(PYTEST) -n 2 -m "not process and not serial"
 
 bench: $(STAMP)
 	$(PY) -m pip install -q -e '.[test,bench]'

@@ -87,12 +87,21 @@ def _quiet_stdout(json_mode: bool):
         yield
 
 
-def _setup(threads: int | None = None) -> None:
+@contextlib.contextmanager
+def _setup(threads: int | None = None):
+    """torch's CPU threads and the root logger's level (lerobot's INFO chatter off) for one command, put back
+    after it: a command called in-process (a test, a notebook) leaves the caller's settings as they were."""
     import torch  # not at start-up: the commands that need it import it
 
-    logging.getLogger().setLevel(logging.WARNING)
+    root, before = logging.getLogger(), (logging.getLogger().level, torch.get_num_threads())
+    root.setLevel(logging.WARNING)
     if threads:
         torch.set_num_threads(threads)
+    try:
+        yield
+    finally:
+        root.setLevel(before[0])
+        torch.set_num_threads(before[1])
 
 
 def cmd_train(args: argparse.Namespace) -> int:
@@ -101,8 +110,7 @@ def cmd_train(args: argparse.Namespace) -> int:
 
     cfg = TrainConfig.load(args.config, **config.overrides(args, TrainConfig))
     ref = resolve(args.repo_id, args.hub, args.root, args.version)
-    with _quiet_stdout(args.json):
-        _setup(args.threads)
+    with _quiet_stdout(args.json), _setup(args.threads):
         summary = train(
             ref, args.out, cfg, policy=args.policy, resume=args.resume, progress=sys.stderr.isatty() or not args.json
         )
@@ -132,8 +140,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     from policies import evaluate as ev  # torch, lerobot and mujoco: not at start-up
 
     seed = ev.EVAL_SEED if args.seed is None else args.seed
-    with _quiet_stdout(args.json):
-        _setup(args.threads)
+    with _quiet_stdout(args.json), _setup(args.threads):
         if args.policy in ("demonstrator", "random"):
             if not args.task or not args.robot:
                 raise GloverecError(f"--policy {args.policy} needs --task and --robot")
@@ -183,8 +190,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     from policies.replay import replay
 
     ref = resolve(args.repo_id, args.hub, args.root, args.version)
-    with _quiet_stdout(args.json):
-        _setup()
+    with _quiet_stdout(args.json), _setup():
         out = replay(ref, args.episode, args.video)
     if args.json:
         print(json.dumps(out))

@@ -1,10 +1,16 @@
 import os
+import shutil
 import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
+from filelock import FileLock
+
+REPO = Path(__file__).resolve().parents[1]
+FW_BUILD = REPO / "build" / "firmware"  # `make firmware`'s host build: make test builds and ctests it first
 
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
 os.environ.setdefault("MUJOCO_GL", "egl")
@@ -88,10 +94,11 @@ class CliResult(subprocess.CompletedProcess):
     pass
 
 
-def cli(*args: str) -> CliResult:
+def cli(*args: str, env: dict | None = None, **_) -> CliResult:
     """Run `gloverec ARGS` in this process, for what no process boundary is part of (argument handling, error
-    messages, inspect, the hub, training): its exit code, stdout and stderr as a child's would be. The global
-    state a command sets (the SIGTERM handler, torch's thread count, the root logger's level) is put back."""
+    messages, inspect, the hub, training): its exit code, stdout and stderr as a child's would be, with ``env``
+    (variables set for the call). The global state a command sets (the SIGTERM handler, torch's thread count, the
+    root logger's level) is put back; other keyword arguments (a child's ``timeout``) are ignored."""
     import io
     import logging
     from contextlib import redirect_stderr, redirect_stdout
@@ -103,6 +110,8 @@ def cli(*args: str) -> CliResult:
     out, err = io.StringIO(), io.StringIO()
     handler, level = signal.getsignal(signal.SIGTERM), logging.getLogger().level
     threads = torch.get_num_threads()
+    saved = {k: os.environ.get(k) for k in (env or {})}
+    os.environ.update({k: str(v) for k, v in (env or {}).items()})
     try:
         with redirect_stdout(out), redirect_stderr(err):
             try:
@@ -113,4 +122,117 @@ def cli(*args: str) -> CliResult:
         signal.signal(signal.SIGTERM, handler)
         logging.getLogger().setLevel(level)
         torch.set_num_threads(threads)
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
     return CliResult(["gloverec", *args], code, out.getvalue(), err.getvalue())
+
+
+# ---------------------------------------------------------------- shared, built once per run
+
+
+@pytest.fixture(scope="session")
+def shared(tmp_path_factory, worker_id):
+    """``shared(name, build)``: the folder ``build(path)`` makes, made once per test run and shared read-only by
+    every test and every xdist worker (a session fixture runs once per worker: a file lock lets the first one
+    build it and the others wait for it). Tests copy what they change."""
+    base = tmp_path_factory.getbasetemp()
+    base = (base.parent if worker_id != "master" else base) / "shared"
+    base.mkdir(parents=True, exist_ok=True)
+
+    def get(name: str, build) -> Path:
+        path, done = base / name, base / f"{name}.done"
+        with FileLock(str(base / f"{name}.lock")):
+            if not done.exists():
+                shutil.rmtree(path, ignore_errors=True)  # what a build that failed before left
+                build(path)
+                done.touch()
+        return path
+
+    return get
+
+
+@pytest.fixture(scope="session")
+def fw_build() -> Path:
+    """The firmware core's host build (build/firmware, incremental: up to date after `make firmware`, built here
+    otherwise, once, under a file lock); fails, never skips, without cmake and g++."""
+    from recorder.emulator.firmware import FirmwareError, build_core
+
+    with FileLock(str(FW_BUILD) + ".lock"):
+        try:
+            build_core(FW_BUILD, target=None, source_dir=REPO / "firmware")
+        except FirmwareError as exc:
+            pytest.fail(str(exc), pytrace=False)
+    return FW_BUILD
+
+
+POSE_REPO = "test/pose"
+
+
+@pytest.fixture(scope="session")
+def pose_recording(shared) -> tuple[Path, dict]:
+    """A recording made once per test run, as a user makes it (`gloverec record`, the emulated glove, its session
+    log): 4 HandPose episodes on glovehand, seeds 0-3, repo id test/pose. (root, the record command's summary);
+    read-only: copy it to change it."""
+    import json
+
+    def build(path: Path) -> None:
+        r = gloverec("record", "--episodes", "4", "--root", str(path / "ds"), "--repo-id", POSE_REPO, "--json",
+                     timeout=240)  # fmt: skip
+        assert r.returncode == 0, r.stderr
+        (path / "summary.json").write_text(r.stdout.strip().splitlines()[-1])
+
+    path = shared("pose_recording", build)
+    return path / "ds", json.loads((path / "summary.json").read_text())
+
+
+@pytest.fixture(scope="session")
+def docs_run(shared):
+    """``docs_run(name, k=0)``: the working folder in which the k-th run block of README.md or docs/NAME ran, as
+    written (tests/docs_runner.py), once per test run; a failing block fails every test that asks for it."""
+    from docs_runner import ROOT, run_block
+
+    def get(name: str, index: int = 0) -> Path:
+        doc = ROOT / name if name == "README.md" else ROOT / "docs" / name
+        return shared(f"docs-{name}-{index}", lambda path: (path.mkdir(parents=True), run_block(doc, index, path)))
+
+    return get
+
+
+# ---------------------------------------------------------------- marks: process, serial (pyproject.toml)
+
+SPAWNING_FIXTURES = {"emulator", "docs_run", "display"}  # a test that asks for one starts a process
+_CHILDREN = ("python", "bash", "Xvfb", "xdotool", "chromium", "lerobot-", "gloverec")
+
+
+def pytest_collection_modifyitems(items):
+    for item in items:
+        if SPAWNING_FIXTURES & set(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.process)
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_call(item):
+    """A test not marked ``process`` that starts a child process of ours (the CLI, an emulator, a browser) fails,
+    so that `make check` (not process) stays the in-process loop it says it is; fixtures may start them."""
+    if item.get_closest_marker("process"):
+        yield
+        return
+    started: list[str] = []
+    original = subprocess.Popen.__init__
+
+    def watch(self, args, *rest, **kw):
+        first = str(args[0] if isinstance(args, (list, tuple)) else args).split()[0]
+        if Path(first).name.startswith(_CHILDREN) or first == sys.executable:
+            started.append(" ".join(map(str, args)) if isinstance(args, (list, tuple)) else str(args))
+        original(self, args, *rest, **kw)
+
+    subprocess.Popen.__init__ = watch
+    try:
+        yield
+    finally:
+        subprocess.Popen.__init__ = original
+    if started:
+        pytest.fail(f"{item.nodeid} starts a child process ({started[0][:120]}): mark it @pytest.mark.process")

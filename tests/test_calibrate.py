@@ -11,7 +11,7 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
-from conftest import gloverec, wait_for
+from conftest import cli, gloverec, wait_for
 from recorder import GloverecError
 from recorder.emulator import procedure as emulated
 from recorder.emulator.emulator import GLOVE_ID, Emulator
@@ -36,8 +36,9 @@ def with_dir(folder) -> dict:
 @pytest.fixture(scope="module")
 def calibrated(tmp_path_factory):
     folder = tmp_path_factory.mktemp("calibration")
-    summary = run_json("calibrate", "--glove", "emulator", "--dir", str(folder))
-    return folder, summary
+    r = cli("calibrate", "--glove", "emulator", "--dir", str(folder), "--json")  # the emulator runs in-process
+    assert r.returncode == 0, r.stderr
+    return folder, json.loads(r.stdout)
 
 
 @pytest.fixture(scope="module")
@@ -71,7 +72,7 @@ def test_calibrate_recovers_the_emulators_true_gyro_bias(calibrated):
 
 
 def test_calibrate_prints_a_table_and_takes_a_glove_id(tmp_path):
-    r = gloverec("calibrate", "--glove", "emulator", "--dir", str(tmp_path), "--glove-id", "c0ffee")
+    r = cli("calibrate", "--glove", "emulator", "--dir", str(tmp_path), "--glove-id", "c0ffee")
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "glove_00c0ffee.json").exists() and "glove 00c0ffee calibrated" in r.stdout
     assert "pinky_intermediate" in r.stdout and "step 4/4" in r.stderr
@@ -121,21 +122,40 @@ def test_a_moving_hand_is_refused(emulator, tmp_path):
 
 def test_a_standalone_emulator_performs_the_steps_when_calibrate_asks(emulator, tmp_path):
     """`gloverec emulate --motion calibration` (docs/recording.md): its wearer rests until calibrate switches it
-    to raw frames, then performs the steps; a second calibration starts them again from a gesturing hand. Both
-    pass step 1 at the first attempt, and the glove ends in the mode it started in."""
+    to raw frames, then performs the steps: step 1 passes at the first attempt, and the glove ends in the mode it
+    started in. (A second calibration restarts the steps from a gesturing hand: the next test, on the motion.)"""
     emu = emulator("--rate", "200", "--mode", "compact", "--motion", "calibration")
-    for _ in range(2):
-        r = gloverec(
-            "calibrate", "--glove", emu.port, "--yes", "--dir", str(tmp_path), "--json", stdin=open(os.devnull)
-        )
-        assert r.returncode == 0, r.stderr
-        summary = json.loads(r.stdout)
-        assert summary["quality"]["still_attempts"] == 1 and summary["quality"]["rest_still"]
-        assert all(summary["accel_offset_ok"]) and "glove back in compact mode" in r.stderr
-        assert frame_kinds(emu.port) == {"PoseCompactFrame"}
-        time.sleep(1.0)  # the emulated wearer gestures again before the second calibration
+    r = gloverec("calibrate", "--glove", emu.port, "--yes", "--dir", str(tmp_path), "--json", stdin=open(os.devnull))
+    assert r.returncode == 0, r.stderr
+    summary = json.loads(r.stdout)
+    assert summary["quality"]["still_attempts"] == 1 and summary["quality"]["rest_still"]
+    assert all(summary["accel_offset_ok"]) and "glove back in compact mode" in r.stderr
+    assert frame_kinds(emu.port) == {"PoseCompactFrame"}
 
 
+def test_the_emulated_wearer_starts_the_steps_again_from_where_its_hand_is():
+    """OnRequest: at rest until the cue, then the procedure from session time 0; a second cue, while the hand
+    gestures, brings it back to flat within SETTLE_S (inside the margin a step leaves out) and still from there
+    for step 1's 3 s."""
+    from recorder.calibrate.procedure import MARGIN_S
+    from recorder.emulator.procedure import HOLD, OnRequest
+
+    m = OnRequest("gestures", 0, 200.0)
+    t = np.arange(0, 2.0, 0.005)
+    assert np.ptp(m.at(t).angles, axis=0).max() == 0.0  # resting until asked
+    m.restart(10.0)
+    np.testing.assert_array_equal(m.at(10.0 + t).angles, m.procedure.at(t).angles)
+    busy = 10.0 + emulated.START + 1.3  # gesturing, after the procedure
+    assert np.ptp(m.at(busy + np.arange(0, 0.5, 0.005)).angles, axis=0).max() > 0.05
+    m.restart(busy)
+    assert m.start_s == pytest.approx(busy + OnRequest.SETTLE_S) and OnRequest.SETTLE_S + 0.05 < MARGIN_S
+    flat = m.at(m.start_s + np.arange(0.0, HOLD, 0.005))
+    assert np.ptp(flat.angles, axis=0).max() == 0.0 and np.ptp(flat.palm_quat, axis=0).max() == 0.0
+    step_in = m.at(np.linspace(busy, m.start_s, 11))
+    assert np.all(np.diff(np.abs(step_in.angles - flat.angles[0]).max(axis=1)) <= 1e-12)  # closing in on flat
+
+
+@pytest.mark.process
 def test_bad_gloves_and_files_are_one_line_errors(tmp_path):
     from recorder.log.writer import McapLogger
     from recorder.protocol import PoseFrame, encode_frame
@@ -149,9 +169,9 @@ def test_bad_gloves_and_files_are_one_line_errors(tmp_path):
         (f"mcap:{log}", "did not switch to raw mode"),
         ("serial:/dev/does-not-exist", "no such port"),
     ):
-        r = gloverec("calibrate", "--glove", glove, "--dir", str(tmp_path))
-        assert r.returncode == 1 and needle in r.stderr, r.stderr
-        assert r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
+        r = cli("calibrate", "--glove", glove, "--dir", str(tmp_path))
+        assert r.returncode == 1 and needle in r.stderr.strip().splitlines()[-1], r.stderr
+        assert r.stderr.count("gloverec: error:") == 1 and "Traceback" not in r.stderr
     bad = tmp_path / f"glove_{GLOVE_ID:08x}.json"
     bad.write_text("{not json")
     with pytest.raises(GloverecError, match="bad calibration file"):
@@ -163,6 +183,7 @@ def test_bad_gloves_and_files_are_one_line_errors(tmp_path):
     bad.write_text(json.dumps(d | {"gyro_bias": [[0, 0, 0]]}))
     with pytest.raises(GloverecError, match="gyro_bias has shape"):
         load_fusion(GLOVE_ID, tmp_path)
+    # the recorder forks its writer before the glove (and its calibration) opens: as a user runs it, a child
     r = gloverec(
         "record", "--glove-mode", "raw", "--episodes", "1", "--root", str(tmp_path / "ds"), env=with_dir(tmp_path)
     )
@@ -250,6 +271,7 @@ def test_raw_mode_joint_angles_match_pose_mode(recordings):
     assert np.sqrt(np.mean(d**2)) < 2.0 and np.abs(d).max() < 8.0, dict(zip(JOINTS, rms.round(2)))
 
 
+@pytest.mark.process
 def test_rerecord_fuses_with_the_logs_calibration(recordings, tmp_path):
     """No calibration where rerecord looks (an empty folder): it takes the one in the log, and reproduces."""
     out = tmp_path / "again"

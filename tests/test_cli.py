@@ -23,13 +23,13 @@ from recorder.protocol import PoseFrame
     ],
 )
 def test_usage_errors_are_one_line(args, needle):
-    r = gloverec(*args)
+    r = cli(*args)
     assert r.returncode == 2
     assert r.stderr.count("\n") == 1 and needle in r.stderr and "Traceback" not in r.stderr
 
 
 def test_bad_udp_source_is_one_line():
-    r = gloverec("monitor", "--port", "udp:notaport", "--duration", "1")
+    r = cli("monitor", "--port", "udp:notaport", "--duration", "1")
     assert r.returncode == 1 and r.stderr.count("\n") == 1 and "udp:PORT" in r.stderr
 
 

@@ -6,7 +6,7 @@ import argparse
 import pytest
 from hypothesis import given, strategies as st
 
-from conftest import gloverec
+from conftest import cli
 from policies.config import TrainConfig
 from recorder import config
 from recorder.config import ConfigError
@@ -92,13 +92,13 @@ def test_bad_files_are_one_line_naming_the_file_and_key(tmp_path, text, message)
 def test_the_command_line_reports_config_errors_in_one_line(tmp_path):
     path = tmp_path / "rec.yaml"
     path.write_text("episodes: -1\n")
-    r = gloverec("record", "--config", str(path))
+    r = cli("record", "--config", str(path))
     assert r.returncode == 1 and r.stderr.count("\n") == 1 and "episodes: Input should be greater than 0" in r.stderr
-    r = gloverec("record", "--config", str(tmp_path / "missing.yaml"))
+    r = cli("record", "--config", str(tmp_path / "missing.yaml"))
     assert r.returncode == 1 and "no such config file" in r.stderr
-    r = gloverec("record", "--fps", "0")  # flag values are checked by argparse: exit 2
+    r = cli("record", "--fps", "0")  # flag values are checked by argparse: exit 2
     assert r.returncode == 2 and "--fps: must be positive" in r.stderr and r.stderr.count("\n") == 1
-    r = gloverec("train", "--repo-id", "a/b", "--out", str(tmp_path / "o"), "--val-fraction", "1")
+    r = cli("train", "--repo-id", "a/b", "--out", str(tmp_path / "o"), "--val-fraction", "1")
     assert r.returncode == 2 and "--val-fraction: must be below 1" in r.stderr
 
 

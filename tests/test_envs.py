@@ -183,6 +183,7 @@ def test_grasp_randomises_objects():
     assert seen == {"box", "cylinder", "sphere"} and len(sizes) == 12
 
 
+@pytest.mark.process
 def test_a_task_from_outside_the_package_records_through_the_cli(tmp_path):
     """A task is one module (tests/plugins/toy_task.py: its environment, its demonstrator, its instruction, and
     @register_task) plus one config entry, GLOVEREC_PLUGINS (recorder/plugins.py): a command in a child process

@@ -150,6 +150,7 @@ np.savez(sys.argv[2], **out)
 """
 
 
+@pytest.mark.process
 def test_the_kernels_run_as_plain_python(motion, recording, tmp_path):
     """NUMBA_DISABLE_JIT=1 (for a debugger) runs the same code uncompiled, with the same results."""
     gyro, accel, mask, dt = (x[:40] for x in motion)

@@ -1,5 +1,5 @@
 """The glove's filter on both sides: the firmware's C++ core (firmware/lib/glove_core/complementary_filter.cpp,
-FilterMode::Inertial, built here with cmake + g++, run by glove_core_cli) and its Python twin (recorder/fusion/
+FilterMode::Inertial, the host build of `make firmware`, run by glove_core_cli) and its Python twin (recorder/fusion/
 inertial.py, inertial_step) give the same bits from the same register counts, dropped samples included.
 And on two real recordings with optical truth (BROAD trials 16, fast translation, and 30, the worst trial of
 every filter measured in bench/fusion_real.py) the host's default fusion, as a recording runs it, and the glove's
@@ -7,7 +7,6 @@ core stay within docs/fusion.md's bounds against VQF (PyPI ``vqf``, by the datas
 
 from __future__ import annotations
 
-import shutil
 import subprocess
 from pathlib import Path
 
@@ -19,26 +18,14 @@ from recorder.fusion import FusionConfig, make_filter
 from recorder.fusion.truth import G, host_palm, load_trial, orientation_errors, registers, stamped_samples
 
 REPO = Path(__file__).resolve().parents[1]
-FIRMWARE = REPO / "firmware"
 BROAD = REPO.parent / "shared" / "data" / "broad"
 GYRO_SCALE, ACCEL_SCALE = 2000 * (0.017453292519943295 / 32768), 16 / 32768  # imu_units.h, as the core
 
 
 @pytest.fixture(scope="module")
-def cli(tmp_path_factory) -> Path:
-    if not (FIRMWARE / "CMakeLists.txt").exists():
-        pytest.skip("no firmware/ tree")
-    missing = [t for t in ("cmake", "g++") if shutil.which(t) is None]
-    if missing:
-        pytest.skip(f"needs {' and '.join(missing)} to build the firmware core")
-    build = tmp_path_factory.mktemp("fw")
-    for cmd in (
-        ["cmake", "-S", str(FIRMWARE), "-B", str(build), "-DGLOVE_CHECK_ARDUINO_LAYER=OFF"],
-        ["cmake", "--build", str(build), "-j", "2", "--target", "glove_core_cli"],
-    ):
-        done = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
-        assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
-    return build / "glove_core_cli"
+def cli(fw_build) -> Path:
+    """glove_core_cli of the core's host build (the conftest's fw_build: what `make firmware` built)."""
+    return fw_build / "glove_core_cli"
 
 
 def run_core(cli: Path, tmp: Path, gyro, accel_g, t_us, *options) -> np.ndarray:

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from conftest import gloverec
+from conftest import cli
 from recorder.config import ConfigError
 from recorder.hand.kinematics import HandSize
 from recorder.hand.pinch import estimate_proportions, pinch_pose, sized, tip_gap
@@ -90,7 +90,7 @@ def test_pinch_poses_touch_and_proportions_come_back():
 
 
 def test_calibrate_saves_measurements_and_refuses_impossible_ones(tmp_path):
-    r = gloverec("calibrate", "--wearer", "ana", "--hand-length", "172", "--hand-breadth", "79", "--dir", str(tmp_path))
+    r = cli("calibrate", "--wearer", "ana", "--hand-length", "172", "--hand-breadth", "79", "--dir", str(tmp_path))
     assert r.returncode == 0, r.stderr
     assert "hand profile of ana saved" in r.stdout
     p = load_profile("ana", tmp_path)
@@ -101,7 +101,7 @@ def test_calibrate_saves_measurements_and_refuses_impossible_ones(tmp_path):
         (("--glove", "emulator", "--pinch"), "add --wearer NAME"),
         (("--wearer", "bob", "--pinch"), "calibrate needs --glove"),
     ]:
-        r = gloverec("calibrate", *args, "--dir", str(tmp_path))
+        r = cli("calibrate", *args, "--dir", str(tmp_path))
         err = r.stderr.strip()
         assert r.returncode != 0 and "\n" not in err and "Traceback" not in err and needle in err, err
 
@@ -109,7 +109,7 @@ def test_calibrate_saves_measurements_and_refuses_impossible_ones(tmp_path):
 def test_calibrate_pinch_step_estimates_the_wearers_fingers(tmp_path):
     """The emulated wearer (the reference hand's proportions) does the pinch step after the glove's steps; the
     profile keeps the measured length and gets finger lengths near that hand's proportions."""
-    r = gloverec(
+    r = cli(
         "calibrate", "--glove", "emulator", "--wearer", "ana", "--hand-length", "172", "--pinch",
         "--dir", str(tmp_path), "--json", timeout=120,
     )  # fmt: skip
@@ -156,9 +156,9 @@ def test_view_takes_a_wearer(tmp_path):
     env = {**os.environ, "GLOVEREC_CALIBRATION_DIR": str(tmp_path)}
     video = tmp_path / "ana.mp4"
     args = ("view", "--glove", "emulator", "--robot", "shadow", "--mode", "pinch", "--video", str(video))
-    r = gloverec(*args, "--duration", "1", "--wearer", "ana", timeout=120, env=env)
+    r = cli(*args, "--duration", "1", "--wearer", "ana", env=env)
     assert r.returncode == 0, r.stderr[-2000:]
     assert video.stat().st_size > 0
-    r = gloverec(*args, "--duration", "1", "--wearer", "bob", timeout=120, env=env)
+    r = cli(*args, "--duration", "1", "--wearer", "bob", env=env)
     err = r.stderr.strip()
     assert r.returncode == 1 and "\n" not in err and "no hand profile for wearer 'bob'" in err, err

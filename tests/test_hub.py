@@ -360,6 +360,7 @@ store.Hub(hub).push(src, repo)
 """
 
 
+@pytest.mark.process
 @pytest.mark.parametrize("moment", ["copying", "publishing", "linking"])
 def test_killed_push_leaves_no_partial_version(hub, sources, moment, capsys):
     hub.push(sources["a"], REPO)
@@ -388,6 +389,7 @@ def test_killed_push_leaves_no_partial_version(hub, sources, moment, capsys):
     assert not any(atomic.is_temp(p.name) for p in (hub.root / "alice").iterdir())
 
 
+@pytest.mark.process
 def test_next_push_cleans_stale_staging_but_not_a_live_one(hub, sources):
     hub.push(sources["a"], REPO)
     dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)

@@ -7,6 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 LINT = [
     sys.executable,
@@ -28,6 +30,7 @@ def _copy(tmp_path: Path) -> Path:
     return tree
 
 
+@pytest.mark.process
 def test_the_layers_hold_and_a_wrong_arrow_breaks_them(tmp_path):
     tree = _copy(tmp_path)
     r = _lint(tree)

@@ -1,12 +1,10 @@
 """The glove inside LeRobot's own tools: the teleoperator plugin (gloverec_glove) and the simulated-hand robot
-plugin (gloverec_sim) with lerobot-record, lerobot-replay and lerobot-teleoperate as subprocesses, the datasets
-they record trained by `gloverec train` and lerobot-train, and the teleoperator driving LeRobot's HopeJR hand."""
+plugin (gloverec_sim). lerobot-record, lerobot-teleoperate, lerobot-replay, `gloverec train` and lerobot-train run
+as docs/lerobot.md writes them (tests/test_docs.py); here, what they made, the plugins' API, and the teleoperator
+driving LeRobot's HopeJR hand."""
 
 import json
 import logging
-import os
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -19,92 +17,68 @@ from lerobot_robot_gloverec import GloverecSim, GloverecSimConfig
 from lerobot_teleoperator_gloverec import GloverecGlove, GloverecGloveConfig
 
 import envs
-from conftest import EmulatorProcess, cli, gloverec
+from conftest import EmulatorProcess, cli
 from recorder.config import ConfigError
 from recorder.hand.gestures import GESTURES
 from recorder.retarget.motor_map import load_motor_map
 
-BIN = Path(sys.executable).parent
-
-
-def lerobot(command: str, *args: str, timeout: int = 300) -> subprocess.CompletedProcess:
-    """A LeRobot command line tool as a user runs it, headless (no display, no keyboard, no sounds)."""
-    env = {k: v for k, v in os.environ.items() if k != "DISPLAY"} | {"OMP_NUM_THREADS": "1"}
-    cmd = [str(BIN / f"lerobot-{command}"), *args]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, stdin=subprocess.DEVNULL)
+pytestmark = pytest.mark.xdist_group("lerobot.md")  # with the docs block whose outputs these tests read
 
 
 @pytest.fixture(scope="module")
-def glove(tmp_path_factory):
-    emu = EmulatorProcess("--rate", "100", "--link", str(tmp_path_factory.mktemp("glove") / "glove"))
-    yield emu
-    emu.stop()
+def lerobot_run(docs_run) -> Path:
+    """docs/lerobot.md's commands, run as written (tests/test_docs.py, the conftest's docs_run): the emulated glove
+    on a pseudo-terminal, lerobot-record into datasets/recordings/me/glove_pose (two short episodes),
+    lerobot-teleoperate, lerobot-replay, `gloverec train` into datasets/policies/lr_bc, `gloverec eval`, and
+    lerobot-train into outputs/lr_bc. Here: what they made."""
+    return docs_run("lerobot.md")
 
 
 @pytest.fixture(scope="module")
-def recorded(glove, tmp_path_factory):
-    """lerobot-record: the emulated glove on a pseudo-terminal drives gloverec_sim, two short episodes."""
-    root = tmp_path_factory.mktemp("lerobot") / "ds"
-    r = lerobot(
-        "record", "--robot.type=gloverec_sim", "--robot.robot=glovehand", "--robot.task=pose",
-        "--teleop.type=gloverec_glove", f"--teleop.port=serial:{glove.port}", "--teleop.robot=glovehand",
-        "--dataset.repo_id=test/lerobot_record", f"--dataset.root={root}", "--dataset.push_to_hub=false",
-        "--dataset.num_episodes=2", "--dataset.episode_time_s=2", "--dataset.reset_time_s=0.5",
-        "--dataset.single_task=make the gesture", "--dataset.video=false", "--play_sounds=false",
-    )  # fmt: skip
-    assert r.returncode == 0, r.stderr[-3000:]
-    return root
+def recorded(lerobot_run) -> Path:
+    return lerobot_run / "datasets" / "recordings" / "me" / "glove_pose"
 
 
 def test_lerobot_record_with_the_glove_and_the_sim_makes_a_plain_lerobot_dataset(recorded):
-    ds = LeRobotDataset("test/lerobot_record", root=recorded)
+    ds = LeRobotDataset("me/glove_pose", root=recorded)
     env = envs.make("pose", "glovehand", state_includes_task=True).unwrapped
     assert ds.num_episodes == 2 and ds.meta.robot_type == "gloverec_sim:pose:glovehand" and ds.fps == 30
     assert ds.meta.features["action"]["names"] == list(env.action_names)
     assert ds.meta.features["observation.state"]["names"] == list(env.state_names)
     assert any(n.startswith("goal.") for n in env.state_names)  # the task's state rides in observation.state
+    assert not (recorded / "meta" / "gloverec").exists()  # a plain LeRobot dataset: no sidecar of ours
     actions = np.stack([ds[i]["action"].numpy() for i in range(0, len(ds), 10)])
     assert np.ptp(actions[:, :20], axis=0).max() > 0.1  # the glove's hand moved the robot's joints
 
 
-def test_lerobot_replay_runs_an_episode_on_the_sim(recorded):
-    r = lerobot("replay", "--robot.type=gloverec_sim", "--robot.robot=glovehand", "--robot.task=pose",
-                "--dataset.repo_id=test/lerobot_record", f"--dataset.root={recorded}", "--dataset.episode=1",
-                "--play_sounds=false")  # fmt: skip
-    assert r.returncode == 0, r.stderr[-3000:]
-
-
-def test_gloverec_train_and_eval_take_a_lerobot_record_dataset(recorded, tmp_path):
-    out = tmp_path / "policy"
-    r = gloverec("train", "--repo-id", "test/lerobot_record", "--root", str(recorded), "--steps", "30",
-                 "--out", str(out), "--json", timeout=300)  # fmt: skip
-    assert r.returncode == 0, r.stderr
-    # no sidecar: the task and the robot come from the robot_type lerobot-record stored (gloverec_sim:pose:glovehand)
-    r = gloverec("eval", "--policy", str(out), "--episodes", "2", "--json", timeout=300)
+def test_gloverec_train_and_eval_take_a_lerobot_record_dataset(lerobot_run):
+    """`gloverec train` made a checkpoint of the lerobot-record dataset; eval finds its task and robot in the
+    robot_type lerobot-record stored (gloverec_sim:pose:glovehand), the dataset having no sidecar."""
+    r = cli("eval", "--policy", str(lerobot_run / "datasets" / "policies" / "lr_bc"), "--episodes", "1", "--json")
     assert r.returncode == 0, r.stderr
     result = json.loads(r.stdout)
-    assert result["task"] == "pose" and result["robot"] == "glovehand" and result["episodes"] == 2
+    assert result["task"] == "pose" and result["robot"] == "glovehand" and result["episodes"] == 1
 
 
-def test_lerobot_train_takes_a_lerobot_record_dataset(recorded, tmp_path):
-    out = tmp_path / "lerobot_train"
-    r = lerobot("train", "--policy.type=gloverec_bc", "--policy.push_to_hub=false", "--policy.device=cpu",
-                "--policy.hidden_dim=64", "--dataset.repo_id=test/lerobot_record", f"--dataset.root={recorded}",
-                "--steps=5", "--batch_size=8", "--save_freq=5", "--log_freq=5", "--eval_freq=0",
-                "--num_workers=0", f"--output_dir={out}")  # fmt: skip
-    assert r.returncode == 0, r.stderr[-3000:]
-    assert (out / "checkpoints" / "last" / "pretrained_model" / "model.safetensors").is_file()
+def test_lerobot_train_takes_a_lerobot_record_dataset(lerobot_run):
+    assert (
+        lerobot_run / "outputs" / "lr_bc" / "checkpoints" / "last" / "pretrained_model" / "model.safetensors"
+    ).is_file()
 
 
-def test_lerobot_teleoperate_drives_the_sim_and_a_robot_mismatch_is_one_line(glove):
-    common = ("--robot.type=gloverec_sim", "--robot.robot=glovehand", "--teleop.type=gloverec_glove",
-              f"--teleop.port=serial:{glove.port}", "--teleop_time_s=1", "--fps=30")  # fmt: skip
-    r = lerobot("teleoperate", *common, "--teleop.robot=glovehand")
-    assert r.returncode == 0, r.stderr[-3000:]
-    r = lerobot("teleoperate", *common, "--teleop.robot=shadow")
-    assert r.returncode != 0
-    last = r.stderr.strip().splitlines()[-1]
-    assert "gloverec_sim drives glovehand, but the action has no 'thumb_cmc_flex'" in last, last
+def test_a_teleoperator_for_another_robot_is_refused_in_one_line():
+    """What lerobot-teleoperate --teleop.robot=shadow with --robot.robot=glovehand meets: gloverec_sim refuses the
+    first action, naming what it lacks."""
+    sim = GloverecSim(GloverecSimConfig(robot="glovehand", task="pose"))
+    teleop = GloverecGlove(GloverecGloveConfig(port="emulator", robot="shadow"))
+    sim.connect()
+    try:
+        with pytest.raises(ValueError) as info:
+            sim.send_action({name: 0.0 for name in teleop.action_features})
+    finally:
+        sim.disconnect()
+    assert "gloverec_sim drives glovehand, but the action has no 'thumb_cmc_flex'" in str(info.value)
+    assert "\n" not in str(info.value)
 
 
 # ---------------------------------------------------------------- the plugins' API
@@ -129,6 +103,8 @@ def test_the_teleoperator_drives_lerobots_hope_jr_hand():
     assert all(0.0 <= v <= 100.0 for t in (flat, fist, pinch) for v in t.values())
 
 
+@pytest.mark.serial  # times get_action: another worker's load would skew it
+@pytest.mark.process
 def test_a_silent_glove_gives_the_held_pose_without_waiting(tmp_path, caplog):
     emu = EmulatorProcess("--rate", "100", "--link", str(tmp_path / "glove"))
     teleop = GloverecGlove(GloverecGloveConfig(port=f"serial:{emu.port}", robot="glovehand"))

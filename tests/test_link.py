@@ -8,7 +8,7 @@ import tty
 import numpy as np
 import pytest
 
-from conftest import gloverec, wait_for
+from conftest import cli, gloverec, wait_for
 from recorder import GloverecError
 from recorder.link.clock import DeviceClock
 from recorder.link.serial_source import SerialSource
@@ -27,6 +27,7 @@ def collect(source, n, timeout=5.0, kind=(PoseFrame, RawFrame)):
     return frames
 
 
+@pytest.mark.serial  # latency bounds: another worker's load would skew them
 def test_emulated_glove_streams_pose_frames(emulator):
     emu = emulator("--rate", "200", "--mode", "pose")
     with SerialSource(emu.port) as src:
@@ -129,7 +130,7 @@ def test_a_slow_consumer_loses_the_oldest_frames_and_counts_them(emulator):
 def test_missing_port_is_a_clear_error(tmp_path):
     with pytest.raises(GloverecError, match="no such port"):
         SerialSource(str(tmp_path / "nope")).open()
-    r = gloverec("monitor", "--port", str(tmp_path / "nope"), "--duration", "1")
+    r = cli("monitor", "--port", str(tmp_path / "nope"), "--duration", "1")
     assert r.returncode == 1 and r.stderr.count("\n") == 1 and "no such port" in r.stderr
 
 
@@ -153,7 +154,7 @@ def test_a_port_that_is_not_a_glove_fails_cleanly():
     t = threading.Thread(target=chatter, daemon=True)
     t.start()
     try:
-        r = gloverec("monitor", "--port", port, "--duration", "1.5", "--json")
+        r = cli("monitor", "--port", port, "--duration", "1.5", "--json")
     finally:
         stop.set()
         t.join()
@@ -163,6 +164,7 @@ def test_a_port_that_is_not_a_glove_fails_cleanly():
     assert '"frames": 0' in r.stdout
 
 
+@pytest.mark.serial  # latency bounds: another worker's load would skew them
 def test_monitor_json_report(emulator):
     emu = emulator("--rate", "250")
     r = gloverec("monitor", "--port", emu.port, "--duration", "2", "--json")

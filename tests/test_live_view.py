@@ -17,11 +17,15 @@ import pytest
 from PIL import Image, ImageGrab
 
 import envs
-from conftest import gloverec, wait_for
+from conftest import cli, gloverec, wait_for
 from recorder.hand.gestures import GESTURES
 from recorder.hand.pose import HandPose
 from recorder.record.sidecar import read_sidecar
 from recorder.view.scene import GHOST_RGBA, Stage, frame_of
+
+# the views draw in the idle scheduling class, with the CPU the recording leaves: the tests that look at what they
+# drew run alone (serial); the others run with the rest
+SERIAL = pytest.mark.serial
 
 SCREENSHOTS = os.environ.get("GLOVEREC_SCREENSHOTS")  # a folder: keep the screenshots (docs/recording.md uses them)
 
@@ -81,6 +85,8 @@ def display():
     xvfb.wait(10)
 
 
+@SERIAL
+@pytest.mark.process
 def test_native_view_shows_the_scene_and_its_key_ends_the_episode(display, tmp_path):
     env = dict(os.environ, DISPLAY=display)
     rec = Recording(tmp_path / "ds", "--task", "grasp", "--episodes", "2", "--episode-time-s", "12",
@@ -102,6 +108,8 @@ def test_native_view_shows_the_scene_and_its_key_ends_the_episode(display, tmp_p
     assert np.count_nonzero(text.min(axis=2) > 200) > 500  # the status lines, white on the view
 
 
+@SERIAL
+@pytest.mark.process
 def test_web_view_in_a_browser(tmp_path):
     from selenium import webdriver
     from selenium.webdriver.chrome.options import Options
@@ -151,6 +159,7 @@ def test_web_view_in_a_browser(tmp_path):
     assert summary["episodes_saved"] == 2 and side[0]["frames"] < 12 * 30 - 30 and side[1]["frames"] == 12 * 30
 
 
+@pytest.mark.process
 def test_killing_the_browser_leaves_the_recording_running(tmp_path):
     port = _free_port()
     rec = Recording(tmp_path / "ds", "--episodes", "3", "--view", f"web:{port}", "--reset-time-s", "0.5")
@@ -165,6 +174,8 @@ def test_killing_the_browser_leaves_the_recording_running(tmp_path):
     assert rec.finish()["episodes_saved"] == 3
 
 
+@SERIAL
+@pytest.mark.process
 def test_rerun_view_records_joints_scene_and_glove(tmp_path):
     import rerun as rr
 
@@ -218,8 +229,9 @@ def test_the_ghost_and_the_human_hand_stay_out_of_the_cameras():
     assert bluish(camera) < 50 < bluish(drawn), (bluish(camera), bluish(drawn), ghost)
 
 
+@pytest.mark.process
 def test_bad_views_are_one_line(tmp_path):
-    r = gloverec("record", "--view", "hologram", "--root", str(tmp_path / "a"))
+    r = cli("record", "--view", "hologram", "--root", str(tmp_path / "a"))
     assert r.returncode == 2 and "unknown view 'hologram'; valid: native, web, rerun, none" in r.stderr
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
     r = gloverec("record", "--view", "native", "--root", str(tmp_path / "b"), env=env)
@@ -230,5 +242,5 @@ def test_bad_views_are_one_line(tmp_path):
         port = busy.getsockname()[1]
         r = gloverec("record", "--view", f"web:{port}", "--root", str(tmp_path / "c"))
     assert r.returncode == 1 and r.stderr.count("\n") == 1 and f"127.0.0.1:{port}" in r.stderr, r.stderr
-    r = gloverec("view", "--glove", "emulator", "--view", "web:99999")
+    r = cli("view", "--glove", "emulator", "--view", "web:99999")
     assert r.returncode == 2 and "expected web, web:PORT or web:HOST:PORT" in r.stderr

@@ -313,6 +313,7 @@ def test_fast_playback_is_lossless_and_faithful(log):
     same_frames(frames, src.frames)
 
 
+@pytest.mark.serial  # timed
 def test_realtime_playback_keeps_the_recorded_spacing(tmp_path):
     chunks = split(glove_bytes(200))[:120]
     path = tmp_path / "rt.mcap"
@@ -328,6 +329,7 @@ def test_realtime_playback_keeps_the_recorded_spacing(tmp_path):
     assert [f.rx_ns - frames[0].rx_ns for f in frames] == [f.rx_ns - src.frames[0].rx_ns for f in src.frames]
 
 
+@pytest.mark.serial  # timed
 def test_close_stops_realtime_playback_at_once(tmp_path):
     record(tmp_path / "slow.mcap", [wire(EventFrame(i, 0, EventCode.BUTTON)) for i in range(3)], step_ns=10**9)
     play = McapSource(str(tmp_path / "slow.mcap"), realtime=True).open()
@@ -477,6 +479,7 @@ for i in range(100000):
 """
 
 
+@pytest.mark.process
 def test_killed_writer_leaves_a_playable_log(tmp_path):
     path = tmp_path / "killed.mcap"
     proc = subprocess.Popen(

@@ -16,11 +16,11 @@ from safetensors.torch import load_file
 import envs
 from conftest import cli, gloverec
 
-REPO = "test/bcpose"
+REPO = "test/pose"
 
 
-def ok_json(*args: str, timeout: float = 120) -> dict:
-    r = gloverec(*args, "--json", timeout=timeout)  # as a user runs it, in a child process
+def ok_json(*args: str) -> dict:
+    r = cli(*args, "--json")  # in this process (the docs' commands run as a user runs them: tests/test_docs.py)
     assert r.returncode == 0, r.stderr[-3000:]
     lines = r.stdout.strip().splitlines()
     assert len(lines) == 1, f"stdout must be exactly one JSON object, got: {r.stdout[:500]}"
@@ -35,29 +35,8 @@ def one_line_error(r: subprocess.CompletedProcess, needle: str, code: int = 1) -
 
 
 @pytest.fixture(scope="module")
-def dataset(tmp_path_factory) -> Path:
-    root = tmp_path_factory.mktemp("bc") / "pose"
-    r = gloverec(
-        "record",
-        "--glove",
-        "emulator",
-        "--task",
-        "pose",
-        "--robot",
-        "glovehand",
-        "--episodes",
-        "4",
-        "--root",
-        str(root),
-        "--repo-id",
-        REPO,
-        "--fast",
-        "--no-log",
-        "--json",
-        timeout=120,
-    )
-    assert r.returncode == 0, r.stderr
-    return root
+def dataset(pose_recording) -> Path:
+    return pose_recording[0]  # 4 HandPose episodes on glovehand, seeds 0-3, recorded once per run (conftest)
 
 
 @pytest.fixture(scope="module")
@@ -274,7 +253,7 @@ def test_eval_takes_task_robot_and_rate_from_the_checkpoint(trained):
 )
 def test_mismatched_features_are_refused_in_one_line(trained, args, needle):
     out, _ = trained
-    one_line_error(gloverec("eval", "--policy", str(out), "--episodes", "1", *args), needle)
+    one_line_error(cli("eval", "--policy", str(out), "--episodes", "1", *args), needle)
 
 
 def test_same_shapes_with_other_feature_names_are_refused(trained, tmp_path):
@@ -285,7 +264,7 @@ def test_same_shapes_with_other_feature_names_are_refused(trained, tmp_path):
     extras["names"]["action"][0] = "robot0:A_WRJ1"  # as if trained on another hand with as many actuators
     (ckpt / "gloverec.json").write_text(json.dumps(extras))
     one_line_error(
-        gloverec("eval", "--policy", str(ckpt), "--episodes", "1"),
+        cli("eval", "--policy", str(ckpt), "--episodes", "1"),
         "feature action differs: element 0 is 'robot0:A_WRJ1' for the policy but 'thumb_cmc_flex'",
     )
 
@@ -308,7 +287,7 @@ def test_replay_detects_a_divergence(dataset, tmp_path):
     rows = [json.loads(line) for line in side.read_text().splitlines()]
     rows[1]["seed"] = 999  # another start: the same actions from there no longer give the recorded states
     side.write_text("".join(json.dumps(r) + "\n" for r in rows))
-    r = gloverec("replay", "--repo-id", REPO, "--root", str(copy), "--episode", "1", "--json")
+    r = cli("replay", "--repo-id", REPO, "--root", str(copy), "--episode", "1", "--json")
     assert r.returncode == 1 and "diverged from the recording at step 0" in r.stderr
     out = json.loads(r.stdout)
     assert not out["reproduced"] and out["state_max_abs"] > 1e-3
@@ -334,20 +313,20 @@ def test_replay_detects_a_divergence(dataset, tmp_path):
     ],
 )
 def test_bad_input_is_one_line(args, needle, code):
-    one_line_error(gloverec(*args), needle, code)
+    one_line_error(cli(*args), needle, code)
 
 
 def test_bad_input_on_real_data_is_one_line(dataset, trained, tmp_path):
     out, _ = trained
     one_line_error(
-        gloverec("replay", "--repo-id", REPO, "--root", str(dataset), "--episode", "9"),
+        cli("replay", "--repo-id", REPO, "--root", str(dataset), "--episode", "9"),
         "has no episode 9 (it has 4: 0..3)",
     )
     one_line_error(
-        gloverec("train", "--repo-id", REPO, "--root", str(dataset), "--out", str(out)), "already exists: pass --resume"
+        cli("train", "--repo-id", REPO, "--root", str(dataset), "--out", str(out)), "already exists: pass --resume"
     )
     one_line_error(
-        gloverec("train", "--repo-id", REPO, "--root", str(dataset), "--out", str(tmp_path / "new"), "--resume"),
+        cli("train", "--repo-id", REPO, "--root", str(dataset), "--out", str(tmp_path / "new"), "--resume"),
         "nothing to resume",
     )
 
@@ -370,6 +349,7 @@ def test_a_dataset_without_a_successful_episode_names_all_episodes(dataset, tmp_
 # ---------------------------------------------------------------- cameras
 
 
+@pytest.mark.process
 def test_a_camera_dataset_trains_an_image_policy_that_eval_gives_its_camera(tmp_path):
     root = tmp_path / "cam"
     r = gloverec(

@@ -9,7 +9,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 from test_policies import REPO, dataset, ok_json  # noqa: F401, F811  (the module-scoped recorded dataset)
+
+pytestmark = pytest.mark.process
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 LEROBOT_TRAIN = Path(sys.executable).with_name("lerobot-train")

@@ -48,6 +48,7 @@ def check_dataset(root, min_episodes):
     return ds.num_episodes
 
 
+@pytest.mark.process
 @pytest.mark.timeout(240)
 def test_sigkill_at_many_moments_keeps_every_saved_episode(tmp_path):
     root = tmp_path / "ds"

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import envs
-from conftest import gloverec
+from conftest import cli, gloverec
 from envs.robots import load_robot, robot_names
 from recorder.demonstrator.rollout import run_episode
 from recorder.hand.profile import HandProfile, save_profile
@@ -64,6 +64,7 @@ def recorded(tmp_path_factory):
     return base, root, profile, env, json.loads(r.stdout.strip().splitlines()[-1])
 
 
+@pytest.mark.process
 def test_leap_records_with_the_wearers_profile(recorded):
     base, root, profile, env, summary = recorded
     assert summary["episodes_saved"] == 2
@@ -90,12 +91,12 @@ def test_leap_records_with_the_wearers_profile(recorded):
 def test_leap_trains_and_evaluates(recorded):
     base, root, _, env, _ = recorded
     out = base / "run"
-    r = gloverec(
+    r = cli(
         "train", "--repo-id", REPO, "--root", str(root), "--steps", "20", "--batch-size", "32", "--out", str(out),
-        "--json", timeout=180, env=env,
+        "--json", env=env,
     )  # fmt: skip
     assert r.returncode == 0, r.stderr[-3000:]
-    r = gloverec("eval", "--policy", str(out), "--episodes", "1", "--json", timeout=180, env=env)
+    r = cli("eval", "--policy", str(out), "--episodes", "1", "--json", env=env)
     assert r.returncode == 0, r.stderr[-3000:]
     result = json.loads(r.stdout.strip().splitlines()[-1])
     assert result["robot"] == "leap" and result["task"] == "pose" and result["episodes"] == 1
@@ -107,9 +108,9 @@ def test_a_missing_or_impossible_wearer_is_one_line(tmp_path):
     (tmp_path / "wearers").mkdir()
     (tmp_path / "wearers" / "bad.json").write_text(json.dumps({"wearer": "bad", "hand_length_mm": 500}))
     for wearer, needle in [("nobody", "no hand profile for wearer 'nobody'"), ("bad", "hand length 500 mm")]:
-        r = gloverec(
+        r = cli(
             "record", "--glove", "emulator", "--robot", "leap", "--episodes", "1", "--root", str(tmp_path / "ds"),
-            "--fast", "--no-log", "--wearer", wearer, timeout=120, env=env,
+            "--fast", "--no-log", "--wearer", wearer, env=env,
         )  # fmt: skip
         err = r.stderr.strip()
         assert r.returncode == 1 and "\n" not in err and "Traceback" not in err and needle in err, err

@@ -5,7 +5,7 @@ import imageio.v2 as imageio
 import numpy as np
 import pytest
 
-from conftest import gloverec
+from conftest import cli
 
 
 def _motion(video) -> float:
@@ -17,7 +17,7 @@ def _motion(video) -> float:
 
 def test_view_of_the_emulated_glove(tmp_path):
     video = tmp_path / "emulator.mp4"
-    r = gloverec("view", "--glove", "emulator", "--video", str(video), "--duration", "2", timeout=120)
+    r = cli("view", "--glove", "emulator", "--video", str(video), "--duration", "2")
     assert r.returncode == 0, r.stderr
     assert "60 frames of glovehand (pose)" in r.stdout
     assert _motion(video) > 1.0
@@ -27,7 +27,7 @@ def test_view_of_the_emulated_glove(tmp_path):
 def test_view_follows_compact_raw_and_legacy_gloves(emulator, tmp_path, mode):
     emu = emulator("--mode", mode, "--rate", "100")
     video = tmp_path / f"{mode}.mp4"
-    r = gloverec("view", "--glove", f"serial:{emu.port}", "--video", str(video), "--duration", "3", timeout=120)
+    r = cli("view", "--glove", f"serial:{emu.port}", "--video", str(video), "--duration", "3")
     assert r.returncode == 0, r.stderr
     glove_frames = int(r.stdout.split(", ")[-1].split()[0])
     assert glove_frames > 100, r.stdout  # poses came through, whatever the wire format
@@ -35,5 +35,5 @@ def test_view_follows_compact_raw_and_legacy_gloves(emulator, tmp_path, mode):
 
 
 def test_view_of_a_silent_port_is_one_line(tmp_path):
-    r = gloverec("view", "--glove", f"mcap:{tmp_path / 'missing.mcap'}", "--video", str(tmp_path / "v.mp4"))
+    r = cli("view", "--glove", f"mcap:{tmp_path / 'missing.mcap'}", "--video", str(tmp_path / "v.mp4"))
     assert r.returncode == 1 and r.stderr.count("\n") == 1 and "missing.mcap" in r.stderr, r.stderr

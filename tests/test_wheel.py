@@ -12,6 +12,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.process
+
 ROOT = Path(__file__).resolve().parents[1]
 PLUGINS = ("lerobot_policy_gloverec", "lerobot_teleoperator_gloverec", "lerobot_robot_gloverec")
 PLUGIN_DIRS = [str(ROOT / p / "plugin") for p in ("policies", "recorder", "envs")]

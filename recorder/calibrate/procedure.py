@@ -52,6 +52,8 @@ STATUS_WAIT_S = 2.5  # raw frames but no status frame (the glove id) for this lo
 STALL_S = 2.0  # a glove that stops sending mid-step
 MARGIN_S = 0.2  # left out at both ends of a step (the hand settling), as recorder.emulator.procedure.phase
 
+STDERR = object()  # ``out``'s default: sys.stderr as it is when the object is made
+
 
 @dataclass(frozen=True)
 class Step:
@@ -109,7 +111,7 @@ class Calibrator:
         attempts: int = 3,
         realtime: bool = False,
         seed: int = 0,
-        out=sys.stderr,
+        out=STDERR,
         view: str | None = "none",
         pinch: bool = False,
         hand_size: HandSize = HandSize(),
@@ -136,7 +138,7 @@ class Calibrator:
         self.attempts = 1 if self.emulated else max(1, int(attempts))  # the emulated wearer does not repeat
         self.realtime = realtime
         self.seed = seed
-        self.out = out
+        self.out = sys.stderr if out is STDERR else out  # None: silent; stderr resolved now (it may be redirected)
         self.glove = None
         self.view_spec = view
         self.view = None

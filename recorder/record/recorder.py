@@ -39,6 +39,8 @@ FIRST_SAMPLE_TIMEOUT_S = 5.0
 NO_POSE_S = 30.0  # the reset period waits this long for the glove's first hand pose, saying what for
 WAITING_NOTE_S = 1.0  # a wait longer than this is said in the terminal (the view shows it at once)
 
+STDERR = object()  # ``out``'s default: sys.stderr as it is when the object is made
+
 
 @dataclass
 class EpisodeStats:
@@ -79,7 +81,7 @@ class Recorder:
         self,
         cfg: RecordConfig,
         control: Control | None = None,
-        out=sys.stderr,
+        out=STDERR,
         plan=None,
         profile: HandProfile | None = None,
     ):
@@ -89,7 +91,7 @@ class Recorder:
         self.cfg = cfg
         self.profile = profile if profile is not None else wearer_profile(cfg.wearer)  # missing: one line, first
         self.plan = list(plan) if plan is not None else None
-        self.out = out
+        self.out = sys.stderr if out is STDERR else out  # None: silent; stderr resolved now (it may be redirected)
         cfg.check()
         try:
             self.env = envs.make(cfg.task, cfg.robot, **cfg.task_options())

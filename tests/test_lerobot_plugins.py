@@ -185,3 +185,24 @@ def test_the_teleoperator_retargets_with_the_wearers_hand_profile(tmp_path):
     )
     with pytest.raises(ConfigError, match="no hand profile for wearer 'bo'"):
         GloverecGlove(GloverecGloveConfig(robot="shadow", wearer="bo", calibration_dir=tmp_path))
+
+
+def test_the_plugins_warn_once_when_lerobots_spoken_prompts_will_fail(monkeypatch, capsys):
+    """lerobot-record speaks with spd-say unless --play_sounds=false; without spd-say the last prompt fails before
+    the dataset is finalised (every episode lost). The plugins warn once, at connect."""
+    from recorder import speech
+
+    assert speech.sounds_on(["lerobot-record", "--robot.type=gloverec_sim"])
+    assert not speech.sounds_on(["lerobot-record", "--play_sounds=false"])
+    assert not speech.sounds_on(["lerobot-record", "--play_sounds", "False"])
+    monkeypatch.setattr(speech.shutil, "which", lambda name: None)  # a plain Debian: no speech-dispatcher
+    monkeypatch.setattr(speech, "_warned", False)
+    monkeypatch.setattr(speech.sys, "argv", ["lerobot-record", "--robot.type=gloverec_sim"])
+    sim = GloverecSim(GloverecSimConfig(robot="glovehand", task="pose"))
+    sim.connect()
+    sim.disconnect()
+    err = capsys.readouterr().err
+    assert err.count("spd-say is not installed") == 1 and "--play_sounds=false" in err
+    assert speech.warn_if_prompts_will_fail("again") is None  # once per process
+    monkeypatch.setattr(speech, "_warned", False)
+    assert speech.warn_if_prompts_will_fail("x", ["lerobot-record", "--play_sounds=false"]) is None

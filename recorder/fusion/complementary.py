@@ -175,7 +175,7 @@ def complementary_step(q, buf, head, count, gain, srt, a, gyro, accel, dt, mask,
         gain[i] = alpha
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def step(q, bias, state, gyro, accel, dt, mask, params):
     """The filter's step in the registry's signature (recorder/fusion/registry.py): state (buf, head, count, gain,
     srt, a), params (static_gain, t1, t2)."""

@@ -190,7 +190,7 @@ def inertial_step(q, qg, qc, lp, nobs, gyro, accel, dt, mask, tau, ramp):
         _inertial_output(q, qg, qc, i)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def step(q, bias, state, gyro, accel, dt, mask, params):
     """The registry's step (recorder/fusion/registry.py): state (qg, qc, lp, nobs), params (tau_s, ramp)."""
     qg, qc, lp, nobs = state

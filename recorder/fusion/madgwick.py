@@ -63,7 +63,7 @@ def madgwick_step(q, gyro, accel, dt, mask, beta, t1, t2):
         )
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def step(q, bias, state, gyro, accel, dt, mask, params):
     """The registry's step (recorder/fusion/registry.py): params (beta, t1, t2)."""
     madgwick_step(q, gyro, accel, dt, mask, params[0], params[1], params[2])

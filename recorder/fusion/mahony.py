@@ -82,7 +82,7 @@ def mahony_step(q, bias, gyro, accel, dt, mask, kp, ki, t1, t2, il):
             )
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def step(q, bias, state, gyro, accel, dt, mask, params):
     """The registry's step (recorder/fusion/registry.py): params (kp, ki, t1, t2, integral_limit)."""
     mahony_step(q, bias, gyro, accel, dt, mask, params[0], params[1], params[2], params[3], params[4])

@@ -150,7 +150,7 @@ def relative_compose(q, rel, root_q, root_bias, bias, parents, order):
             )
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def step(q, bias, state, gyro, accel, dt, mask, params):
     """The registry's step (recorder/fusion/registry.py): state (rel, root_q, root_bias, parents, order), params
     (kp, ki, root_kp, root_ki, t1, t2, integral_limit, rotate_parent_rate as 1 or 0)."""

@@ -5,7 +5,7 @@
     next         lift in 1.2 s
     success      2 of 2 so far
     glove        200 Hz, latency p99 7.9 ms, late 0, dropped 0
-    keys         F9 next  F10 record again  F11 zero  F12 stop  F8 hand   (the web page: → n Enter next, ...)
+    keys         F9 next | F10 record again | F11 zero | F12 stop | F8 human hand   (the web page: → n Enter next, ...)
 
 ``lines(status, key_names)`` gives (label, value) rows; ``columns(status)`` the two text columns MuJoCo's viewer
 overlays.
@@ -68,7 +68,7 @@ def lines(status: dict, key_names: dict[str, str] | None = None) -> list[tuple[s
         rows.append(("glove", health))
     keys = status.get("keys", list(key_names))
     if keys:
-        rows.append(("keys", "  ".join(f"{key_names[k]} {ACTIONS[k]}" for k in keys if k in key_names)))
+        rows.append(("keys", " | ".join(f"{key_names[k]} {ACTIONS[k]}" for k in keys if k in key_names)))
     return rows
 
 

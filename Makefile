@@ -1,14 +1,18 @@
 # gloverec: `make demo` runs the main job with the emulated glove, `make test` runs the suite (`make check`: the
 # tests that start no process),
 # `make bench` runs every benchmark in bench/ (each writes bench/results/<name>.json).
-PYTHON ?= python3
+# Python 3.12 (LeRobot 0.6 needs >= 3.12): python3.12 on PATH if it runs (a pyenv shim may not), else the newest
+# 3.12 under pyenv
+PYTHON ?= $(shell for p in python3.12 $$(ls -d $(HOME)/.pyenv/versions/3.12*/bin/python3.12 2>/dev/null | sort -rV); do \
+             $$p -c 'import sys; assert sys.version_info[:2] == (3, 12)' >/dev/null 2>&1 && { command -v $$p; break; }; \
+           done)
 VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 export HF_HUB_OFFLINE ?= 1
 export MUJOCO_GL ?= egl
 
-.PHONY: install demo test check bench clean system firmware flash
+.PHONY: install demo test check bench clean system video firmware flash
 
 # Debian packages a target needs are installed when missing (CI runs as root with the package registries
 # reachable); when that fails, one line names them and make stops. $(1): a shell test that holds when they are
@@ -41,17 +45,24 @@ install: $(STAMP)
 PLUGINS := policies/plugin recorder/plugin envs/plugin   # LeRobot plugins: policy gloverec_bc, teleop gloverec_glove, robot gloverec_sim
 
 $(STAMP): pyproject.toml $(addsuffix /pyproject.toml,$(PLUGINS))
-	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	@test -n "$(PYTHON)" || { echo "make: no Python 3.12 found (python3.12 on PATH or under pyenv): install it, e.g. pyenv install 3.12, or pass PYTHON=/path/to/python3.12" >&2; exit 1; }
+	@$(PY) -c 'import sys; sys.exit(sys.version_info[:2] != (3, 12))' 2>/dev/null || { rm -rf $(VENV) && $(PYTHON) -m venv $(VENV); }
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e '.[test]'
 	$(PY) -m pip install -q --no-deps $(addprefix -e ,$(PLUGINS))
 	@touch $(STAMP)
 
-demo: $(STAMP)
+demo: $(STAMP) video
 	$(PY) -m recorder.demo
 
 system:
 	$(call need_packages,$(call have,Xvfb xdotool chromium chromedriver),$(SYSTEM_PACKAGES))
+
+# LeRobot 0.6 decodes camera videos with torchcodec, which loads FFmpeg's shared libraries (libavdevice among
+# them, which a bare Debian lacks); without them every dataset lerobot opens logs a 20-line warning and falls
+# back to PyAV. Debian's ffmpeg brings that release's libraries.
+video: $(STAMP)
+	$(call need_packages,$(PY) -c 'import torchcodec.decoders',ffmpeg)
 
 # The firmware for the real chip: the core's unit tests on the host and on an emulated Cortex-M7 (QEMU
 # mps2-an500), the M7's output against the host's bit for bit, its instruction counts against
@@ -83,7 +94,7 @@ flash: firmware
 # load skews them. `make check`: the tests that start no process, for a quick loop.
 JOBS   ?= 3
 PYTEST := $(PY) -m pytest -q --durations=20
-test: $(STAMP) system firmware
+test: $(STAMP) system video firmware
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 	$(VENV)/bin/lint-imports

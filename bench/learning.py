@@ -48,7 +48,7 @@ ACT_FLAGS = [
     "--policy.optimizer_lr=1e-4",
     "--batch_size=32",
     "--num_workers=0",
-    "--eval_freq=0",
+    "--env_eval_freq=0",
     "--log_freq=500",
 ]
 

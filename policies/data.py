@@ -9,7 +9,6 @@ without the per-item cost at every step. Images are kept as uint8. Datasets too 
 
 from __future__ import annotations
 
-import functools
 import json
 import os
 from dataclasses import dataclass
@@ -26,6 +25,7 @@ from recorder.dataset_check import check_dataset
 from recorder.hub.names import parse_repo_id
 from recorder.hub.store import Hub
 from recorder.record.sidecar import read_sidecar
+from recorder.video_backend import video_backend
 
 MIN_STD = 1e-3  # floor of the normalisation std: features (nearly) constant in the demonstrations stay O(1)
 
@@ -61,17 +61,6 @@ def resolve(
 
     v = Hub(hub).checked(repo_id, version)
     return DatasetRef(repo_id, v.path.resolve(), v.tag)
-
-
-@functools.lru_cache(maxsize=1)
-def video_backend() -> str:
-    """LeRobot's video decoder to use: torchcodec when its FFmpeg libraries load, else PyAV (lerobot picks
-    torchcodec whenever the package is installed, even where it cannot load)."""
-    try:
-        import torchcodec.decoders  # noqa: F401
-    except Exception:  # noqa: BLE001  (RuntimeError/OSError: FFmpeg shared libraries missing)
-        return "pyav"
-    return "torchcodec"
 
 
 def load_meta(ref: DatasetRef):
@@ -132,7 +121,7 @@ class FrameCache:
             root=ref.root,
             episodes=self.episodes,
             delta_timestamps=delta_timestamps,
-            video_backend=video_backend() if _has_videos(ref.root) else None,
+            video_backend=video_backend() if _has_videos(ref.root) else "pyav",  # no video: none is loaded
         )
         wanted = [k for k in (*keys, "action_is_pad") if k in ds.features or k == "action_is_pad"]
         columns: dict[str, list] = {k: [] for k in wanted}

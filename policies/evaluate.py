@@ -19,6 +19,7 @@ import io
 import json
 import sys
 import time
+from fractions import Fraction
 from pathlib import Path
 
 import draccus
@@ -367,8 +368,8 @@ def evaluate(
 
 
 def _write_video(path: Path, frames: list, fps: float) -> Path:
-
-    write_video(str(path), np.stack(frames), fps=fps)
+    # lerobot 0.6 writes through PyAV, whose stream rate must be an int or a Fraction (a float raises)
+    write_video(str(path), np.stack(frames), fps=Fraction(fps).limit_denominator(1001))
     return path
 
 

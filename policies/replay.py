@@ -15,9 +15,10 @@ from pathlib import Path
 import numpy as np
 from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
-from policies.data import DatasetRef, dataset_info, sidecar, video_backend
+from policies.data import DatasetRef, dataset_info, sidecar
 from policies.evaluate import VIDEO_SIZE, _write_video, make_env
 from recorder import GloverecError
+from recorder.video_backend import video_backend
 
 TOLERANCE = 1e-5  # float32 rounding; a replay within it reproduces the recording
 COMPARED = ("observation.state", "observation.environment_state")

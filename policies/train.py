@@ -25,6 +25,12 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from lerobot.common.train_utils import (
+    get_step_checkpoint_dir,
+    load_training_state,
+    save_checkpoint,
+    update_last_checkpoint,
+)
 from lerobot.configs.default import DatasetConfig
 from lerobot.configs.policies import PreTrainedConfig
 from lerobot.configs.train import TrainPipelineConfig
@@ -33,18 +39,13 @@ from lerobot.optim.factory import make_optimizer_and_scheduler
 from lerobot.policies.factory import make_policy, make_pre_post_processors
 from lerobot.utils.constants import CHECKPOINTS_DIR, LAST_CHECKPOINT_LINK, PRETRAINED_MODEL_DIR
 from lerobot.utils.random_utils import set_seed
-from lerobot.utils.train_utils import (
-    get_step_checkpoint_dir,
-    load_training_state,
-    save_checkpoint,
-    update_last_checkpoint,
-)
 from tqdm import tqdm
 
 import policies.bc  # noqa: F401  (registers gloverec_bc)
 from policies.config import TrainConfig
-from policies.data import DatasetRef, FrameCache, load_meta, sidecar, split_episodes, video_backend
+from policies.data import DatasetRef, FrameCache, load_meta, sidecar, split_episodes
 from recorder import GloverecError
+from recorder.video_backend import video_backend
 
 POLICY_TYPES = {"bc": "gloverec_bc"}
 

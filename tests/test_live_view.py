@@ -183,7 +183,7 @@ def test_rerun_view_records_joints_scene_and_glove(tmp_path):
     r = gloverec("record", "--root", str(tmp_path / "ds"), "--repo-id", "test/rerun", "--episodes", "2", "--json",
                  "--view", f"rerun:save:{rrd}", timeout=240)  # fmt: skip
     assert r.returncode == 0, r.stderr
-    names = {c.entity_path for c in rr.dataframe.load_recording(str(rrd)).schema().component_columns()}
+    names = {c.entity_path for c in rr.experimental.RrdReader(str(rrd)).store().schema().component_columns()}
     assert {"/scene", "/glove/rate_hz", "/joints/index_pip/target", "/joints/index_pip/state"} <= names
 
 

@@ -68,7 +68,7 @@ def test_lerobot_train_trains_gloverec_bc_through_the_plugin_and_gloverec_evalua
             "--num_workers=0",
             "--save_freq=10",
             "--log_freq=5",
-            "--eval_freq=0",
+            "--env_eval_freq=0",
         ],
         capture_output=True,
         text=True,
@@ -105,3 +105,24 @@ def test_lerobot_plugin_discovery_is_what_registers_the_policy(tmp_path):
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=env, cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-2000:]
     assert r.stdout.split() == ["False", "True", "True"]
+
+
+def test_lerobot_train_trains_act_on_a_gloverec_dataset_and_gloverec_evaluates_it(dataset, tmp_path):  # noqa: F811
+    """docs/policies.md's ACT command (state-only ACT reads observation.environment_state), with a smaller model
+    and fewer steps; gloverec eval finds the task and robot through lerobot's train_config.json."""
+    out = tmp_path / "act"
+    args = [
+        f"--dataset.repo_id={REPO}", f"--dataset.root={dataset}", "--policy.type=act", "--policy.device=cpu",
+        "--policy.push_to_hub=false", "--policy.dim_model=64", "--policy.dim_feedforward=128",
+        "--policy.n_encoder_layers=1", "--policy.n_vae_encoder_layers=1", "--policy.chunk_size=10",
+        "--policy.n_action_steps=1", "--policy.temporal_ensemble_coeff=0.01", "--policy.optimizer_lr=1e-4",
+        "--steps=10", "--batch_size=16", f"--output_dir={out}", "--num_workers=0", "--env_eval_freq=0",
+    ]  # fmt: skip
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "HF_HUB_OFFLINE": "1"}
+    r = subprocess.run([str(LEROBOT_TRAIN), *args], capture_output=True, text=True, timeout=240, env=env, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr[-3000:]
+    model = out / "checkpoints" / "last" / "pretrained_model"
+    assert json.loads((model / "config.json").read_text())["type"] == "act"
+    result = ok_json("eval", "--policy", str(out), "--episodes", "1")
+    assert (result["task"], result["robot"], result["policy_type"]) == ("pose", "glovehand", "act")
+    assert result["episode_lengths"] and 0.0 <= result["success_rate"] <= 1.0

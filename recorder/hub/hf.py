@@ -9,6 +9,7 @@ from __future__ import annotations
 import os
 
 from recorder import GloverecError
+from recorder.video_backend import video_backend
 
 _TRUE = {"1", "ON", "YES", "TRUE"}
 # what of a version goes up: the dataset itself, not our manifest (lerobot skips images/ itself)
@@ -34,7 +35,8 @@ def push_version(repo_id: str, root: os.PathLike, private: bool = False) -> str:
     try:
         from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
-        LeRobotDataset(repo_id, root=root).push_to_hub(private=private, allow_patterns=_ALLOW, tags=["gloverec"])
+        dataset = LeRobotDataset(repo_id, root=root, video_backend=video_backend())
+        dataset.push_to_hub(private=private, allow_patterns=_ALLOW, tags=["gloverec"])
     except Exception as exc:  # network, auth and server errors come from several libraries: all end up here
         text = str(exc).strip().splitlines()
         raise GloverecError(

@@ -1,11 +1,11 @@
 """Per-episode statistics for lerobot, exact and cheap, and the scope in which lerobot's save uses them.
 
-lerobot 0.4.4 estimates each episode's quantiles from 5000-bin histograms built per feature dimension (its
-``RunningQuantileStats``, made for streaming data too large for memory). A saved episode is entirely in memory,
-so exact quantiles (``np.quantile``) cost a fraction of a millisecond where the histograms cost ~0.2 s per episode
-for our ~130 numeric dimensions: more than recording a short episode. The result has lerobot's layout (min, max,
-mean, std, count, q01 ... q99, shaped as lerobot shapes them), so its ``aggregate_stats`` and normalisation use
-it unchanged. Images and videos keep lerobot's own sampled computation.
+lerobot (0.4.4, and 0.6 still) estimates each episode's quantiles from 5000-bin histograms built per feature
+dimension (its ``RunningQuantileStats``, made for streaming data too large for memory). A saved episode is entirely
+in memory, so exact quantiles (``np.quantile``) cost a fraction of a millisecond where the histograms cost ~0.2 s
+per episode for our ~130 numeric dimensions: more than recording a short episode. The result has lerobot's layout
+(min, max, mean, std, count, q01 ... q99, shaped as lerobot shapes them), so its ``aggregate_stats`` and
+normalisation use it unchanged. Images and videos keep lerobot's own sampled computation.
 
 lerobot also runs ``embed_images`` (a row-by-row ``datasets.map``) on every episode, ~0.1-0.3 s, which does
 nothing when no feature is stored as an image in the parquet files (state-only, or cameras as videos); and the
@@ -19,7 +19,7 @@ from __future__ import annotations
 from contextlib import contextmanager
 
 import datasets.arrow_dataset as ad
-import lerobot.datasets.lerobot_dataset as ld
+import lerobot.datasets.dataset_writer as ld  # where lerobot 0.6's save_episode finds these
 import numpy as np
 from datasets.fingerprint import generate_random_fingerprint
 from lerobot.datasets.compute_stats import compute_episode_stats

@@ -11,7 +11,8 @@ import numpy as np
 from recorder import GloverecError
 from recorder.dataset_check import check_dataset
 from recorder.record.config import REPO_ID
-from recorder.record.sidecar import read_sidecar
+from recorder.record.sidecar import SIDECAR, carry_sidecar, read_sidecar
+from recorder.video_backend import video_backend
 
 COLUMNS = (
     "frames",
@@ -85,7 +86,7 @@ def plot_episode(repo_id: str, root: Path, episode: int, out: Path) -> Path:
     meta = load_meta(repo_id, root)
     if not 0 <= episode < meta.total_episodes:
         raise GloverecError(f"no episode {episode}: the dataset has episodes 0-{meta.total_episodes - 1}")
-    ds = LeRobotDataset(repo_id, root=root, episodes=[episode])
+    ds = LeRobotDataset(repo_id, root=root, episodes=[episode], video_backend=video_backend())
     data = ds.hf_dataset.with_format("numpy")
     action, state = np.stack(data["action"]), np.stack(data["observation.state"])
     t = np.asarray(data["timestamp"])
@@ -126,6 +127,30 @@ def add_parsers(sub) -> None:
     p.add_argument("--no-plot", action="store_true")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=run)
+
+    c = sub.add_parser(
+        "carry-meta",
+        help="give a dataset edited by lerobot-edit-dataset back gloverec's episode metadata (seeds, success, ...)",
+        description="lerobot-edit-dataset's delete_episodes, split and merge write datasets without gloverec's "
+        f"episode records ({SIDECAR}: seeds for replay, success, glove figures). This writes them again from the "
+        "datasets the edited one was made from, matching each episode by its length and first frame's time.",
+    )
+    c.add_argument("--root", required=True, help="the edited dataset")
+    c.add_argument(
+        "--from", dest="sources", nargs="+", required=True, metavar="ORIGINAL", help="the dataset(s) it was made from"
+    )
+    c.set_defaults(func=run_carry)
+
+
+def run_carry(args) -> int:
+    for root in (args.root, *args.sources):
+        if not (Path(root) / "meta" / "info.json").is_file():
+            raise GloverecError(f"{root} is not a LeRobot dataset (no meta/info.json)")
+    if not any(read_sidecar(src) for src in args.sources):
+        raise GloverecError(f"{' '.join(args.sources)}: no gloverec episode records ({SIDECAR}) to carry")
+    matched, total = carry_sidecar(args.root, args.sources)
+    print(f"{matched} of {total} episodes of {args.root} matched an episode of {' '.join(args.sources)}")
+    return 0 if matched else 1
 
 
 def dataset_root(repo_id: str, root: str | None, hub: str | None) -> Path:

@@ -1,13 +1,23 @@
 """Our per-episode metadata beside a LeRobot dataset (seed, success, robot, task, glove and loop figures): one
 JSON object per line in ``meta/gloverec/episodes.jsonl``, written by the recorder's store, read by inspect, the
-policies and the hub."""
+policies and the hub.
+
+Other tools edit datasets without knowing the file: lerobot-edit-dataset's delete_episodes, split and merge
+write datasets without it (renumbering the episodes), and a file copied along with edited episodes would
+describe others. So each record is checked against the episode it names by a key both sides keep: the episode's
+length and the device time of its first frame (``time.device_s``, whose per-episode minimum lerobot keeps in
+its episode metadata); records that do not match are ignored, with one warning. ``carry_sidecar`` rebuilds the
+file of an edited dataset from the datasets it was made from, by the same key."""
 
 from __future__ import annotations
 
 import json
+import os
+import sys
 from pathlib import Path
 
 SIDECAR = "meta/gloverec/episodes.jsonl"
+_START = "stats/time.device_s/min"  # lerobot's per-episode stats column of the first frame's device time
 
 
 def append_sidecar(root: str | Path, index: int, fields: dict) -> Path:
@@ -19,9 +29,74 @@ def append_sidecar(root: str | Path, index: int, fields: dict) -> Path:
     return path
 
 
-def read_sidecar(root: str | Path) -> list[dict]:
-    """Our per-episode metadata of a dataset (empty when it has none)."""
+def _records(root: str | Path) -> list[dict]:
     path = Path(root) / SIDECAR
     if not path.exists():
         return []
     return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def episode_keys(root: str | Path) -> dict[int, tuple[int, float | None]]:
+    """Each episode's (length, first frame's device time or None) from the dataset's episode metadata."""
+    import pyarrow.parquet as pq
+
+    keys: dict[int, tuple[int, float | None]] = {}
+    for f in sorted((Path(root) / "meta" / "episodes").glob("*/*.parquet")):
+        names = pq.read_schema(f).names
+        cols = ["episode_index", "length"] + ([_START] if _START in names else [])
+        t = pq.read_table(f, columns=cols).to_pydict()
+        starts = t.get(_START, [None] * len(t["length"]))
+        for e, n, s in zip(t["episode_index"], t["length"], starts):
+            start = s[0] if isinstance(s, list) else s  # stats of a 1-d feature are 1-element lists
+            keys[int(e)] = (int(n), None if start is None else float(start))
+    return keys
+
+
+def _same_episode(record: dict, key: tuple[int, float | None] | None) -> bool:
+    """Whether ``record`` describes the episode of ``key``, by what the record has (a record without a length or
+    a time, as a library caller may save, is taken by its index)."""
+    if key is None or record.get("frames", key[0]) != key[0]:
+        return False
+    start, recorded = key[1], record.get("start_device_time_s")
+    if start is None or recorded is None:
+        return True  # no times to compare (a dataset without time.device_s): the length has to do
+    return abs(start - recorded) <= 1e-4 + 4e-7 * abs(recorded)  # time.device_s is stored as float32
+
+
+def read_sidecar(root: str | Path) -> list[dict]:
+    """Our per-episode metadata of a dataset, the records that describe its episodes (empty when it has none)."""
+    records = _records(root)
+    if not records:
+        return []
+    keys = episode_keys(root)
+    good = [r for r in records if _same_episode(r, keys.get(int(r["episode_index"])))]
+    if len(good) < len(records):
+        print(
+            f"warning: {len(records) - len(good)} of the {len(records)} episode records in {Path(root) / SIDECAR} "
+            "do not match the dataset's episodes (edited by another tool?): ignoring them; "
+            "`gloverec carry-meta --root ROOT --from ORIGINAL` rebuilds them",
+            file=sys.stderr,
+            flush=True,
+        )
+    return good
+
+
+def carry_sidecar(root: str | Path, sources: list[str | Path]) -> tuple[int, int]:
+    """Write ``root``'s sidecar from the records of ``sources`` (the datasets it was edited from) that match its
+    episodes; (episodes matched, episodes in ``root``). Written whole, then renamed over the old file."""
+    pool = [r for src in sources for r in read_sidecar(src)]
+    keys = episode_keys(root)
+    lines = []
+    for index, key in sorted(keys.items()):
+        match = next((r for r in pool if _same_episode(r, key) and key[1] is not None), None)
+        if match is not None:
+            lines.append(json.dumps({**match, "episode_index": index}))
+    path = Path(root) / SIDECAR
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    with tmp.open("w") as f:
+        f.write("".join(line + "\n" for line in lines))
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+    return len(lines), len(keys)

@@ -1,10 +1,10 @@
 """Crash-safe LeRobot datasets: every saved episode survives SIGKILL or power loss, at any moment.
 
-LeRobot 0.4.4 keeps its parquet writers open across episodes and writes their footers only in
-``finalize()``, so a crash can leave a dataset that no longer loads. Here lerobot writes into a private
-working copy, configured so that every episode gets its own data, episode-metadata and video files; after
-each episode the writers are closed (footers written) and the working copy is *published* as an immutable
-snapshot, and the dataset root is switched to it with one atomic rename:
+LeRobot (0.4.4, and 0.6 still: bench/kill_anchor.py) keeps its parquet writers open across episodes and writes their
+footers only in ``finalize()``, so a crash can leave a dataset that no longer loads. Here lerobot writes into a
+private working copy, configured so that every episode gets its own data, episode-metadata and video files; after
+each episode the writers are closed (footers written) and the working copy is *published* as an immutable snapshot,
+and the dataset root is switched to it with one atomic rename:
 
     ROOT                                   -> .ROOT.gloverec/snapshots/000012   (a symlink)
     .ROOT.gloverec/work/                   lerobot's working copy (may hold the episode in progress)
@@ -33,6 +33,7 @@ from recorder import GloverecError
 from recorder.dataset_check import check_dataset
 from recorder.record.episode_stats import lerobot_save_speedups
 from recorder.record.sidecar import append_sidecar
+from recorder.video_backend import video_backend
 
 STATE_SUFFIX = ".gloverec"
 IMMUTABLE = ("data/", "meta/episodes/", "videos/", "logs/")  # never rewritten once closed (session logs: only
@@ -148,7 +149,7 @@ class EpisodeStore:
             check_dataset(self.root)  # a damaged recording: one line, before lerobot reads it or anything changes
             shutil.rmtree(self.work, ignore_errors=True)  # what the interrupted session left
             _clone(self._latest(), self.work, published_info=False)
-            self.dataset = LeRobotDataset(repo_id, root=self.work)
+            self.dataset = LeRobotDataset.resume(repo_id, root=self.work, video_backend=video_backend())
             self._check_compatible(fps, features, robot_type)
         else:
             shutil.rmtree(self.work, ignore_errors=True)
@@ -161,8 +162,10 @@ class EpisodeStore:
                 robot_type=robot_type,
                 use_videos=use_videos,
                 metadata_buffer_size=1,
+                video_backend=video_backend(),
             )
         self.dataset.meta.update_chunk_settings(data_files_size_in_mb=TINY_MB, video_files_size_in_mb=TINY_MB)
+        self.writer = self.dataset.writer  # lerobot's DatasetWriter: the episode buffer and the parquet writer
 
     # ------------------------------------------------------------------ state
     def _ours(self) -> bool:
@@ -200,7 +203,7 @@ class EpisodeStore:
     @property
     def next_index(self) -> int:
         """The index of the episode being filled (ahead of ``num_episodes`` while a writer process saves)."""
-        buffer = self.dataset.episode_buffer
+        buffer = self.writer.episode_buffer
         return self.num_episodes if buffer is None else int(buffer["episode_index"])
 
     def add_frame(self, frame: dict) -> None:
@@ -208,18 +211,14 @@ class EpisodeStore:
 
     def discard_episode(self) -> None:
         """Drop the frames of the episode in progress (re-record, or a glove that vanished)."""
-        ds = self.dataset
         index = self.next_index
-        ds.clear_episode_buffer()
-        for key in ds.meta.video_keys:  # lerobot's clear only removes the PNGs of image features
-            shutil.rmtree(ds._get_image_file_dir(index, key), ignore_errors=True)
-        ds.episode_buffer = ds.create_episode_buffer(episode_index=index)
+        self.dataset.clear_episode_buffer()  # and the frames of its cameras
+        self.writer.episode_buffer = self.writer._create_episode_buffer(episode_index=index)
 
     def take_episode(self) -> dict:
         """Hand over the episode in progress (to ``save_episode`` in a writer process) and start the next."""
-        ds = self.dataset
-        episode = ds.episode_buffer
-        ds.episode_buffer = ds.create_episode_buffer(episode_index=int(episode["episode_index"]) + 1)
+        episode = self.writer.episode_buffer
+        self.writer.episode_buffer = self.writer._create_episode_buffer(episode_index=int(episode["episode_index"]) + 1)
         return episode
 
     def save_episode(self, sidecar: dict, episode: dict | None = None) -> int:
@@ -229,9 +228,8 @@ class EpisodeStore:
         index = ds.meta.total_episodes
         with lerobot_save_speedups(ds.features):
             ds.save_episode(episode_data=episode)
-        ds._close_writer()  # footers: the episode's parquet files are complete and never reopened
+        self.writer.close_writer()  # footers: the episode's parquet files are complete and never reopened
         ds.meta._close_writer()
-        ds._writer_closed_for_reading = True
         append_sidecar(self.work, index, sidecar)
         self.publish()
         return index
@@ -259,9 +257,9 @@ class EpisodeStore:
 
     def close(self) -> None:
         """End the session: drop an unsaved episode; the published snapshot is the dataset."""
-        if self.dataset.episode_buffer and self.dataset.episode_buffer.get("size"):
+        if self.writer.episode_buffer and self.writer.episode_buffer.get("size"):
             self.discard_episode()
-        self.dataset._close_writer()
+        self.writer.close_writer()
         self.dataset.meta._close_writer()
         if self._lock is not None:
             os.close(self._lock)  # a writer process forked from here holds it until it exits too

@@ -60,8 +60,8 @@ class SharedFrame:
     """The latest-frame slot: a memory-mapped file (in /dev/shm where there is one) that both processes map.
     ``SharedFrame.create(layout)`` in the writer, ``SharedFrame.attach(path, layout)`` in the reader; ``write``
     never waits, ``read`` returns the newest complete frame (None when there is no new one since the last read).
-    (A plain file rather than multiprocessing.shared_memory: Python 3.11's resource tracker unlinks a segment
-    when any process that attached it exits.)"""
+    (A plain file rather than multiprocessing.shared_memory: the resource tracker of Python 3.12 unlinks a
+    segment when any process that attached it exits; ``track=False`` arrives only in 3.13.)"""
 
     def __init__(self, path: str, layout: Layout, owner: bool):
         self.path, self.layout, self.owner = path, layout, owner

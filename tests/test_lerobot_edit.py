@@ -1,0 +1,84 @@
+"""gloverec datasets through lerobot-edit-dataset (lerobot's own command, run as docs/lerobot.md shows it):
+the edited datasets train, and gloverec's episode records (seeds, success), which delete_episodes, split and
+merge do not carry, come back with `gloverec carry-meta` and are never trusted when they describe other episodes."""
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from conftest import POSE_REPO, cli
+from recorder.record.sidecar import SIDECAR
+
+pytestmark = pytest.mark.process
+
+EDIT = str(Path(sys.executable).with_name("lerobot-edit-dataset"))
+
+
+def edit(*args: str) -> None:
+    r = subprocess.run([EDIT, *args], capture_output=True, text=True, timeout=180)
+    assert r.returncode == 0, r.stderr[-3000:]
+
+
+def seeds(root: Path) -> dict[int, int]:
+    r = cli("inspect", "--repo-id", POSE_REPO, "--root", str(root), "--no-plot", "--json")
+    assert r.returncode == 0, r.stderr
+    side = [json.loads(line) for line in (root / SIDECAR).read_text().splitlines()] if (root / SIDECAR).exists() else []
+    return {s["episode_index"]: s["seed"] for s in side}
+
+
+def test_deleted_episodes_get_their_seeds_back_and_replay_exactly(pose_recording, tmp_path):
+    root, _ = pose_recording  # seeds 0-3
+    cut = tmp_path / "cut"
+    edit("--repo_id", POSE_REPO, "--root", str(root), "--new_repo_id", "test/cut", "--new_root", str(cut),
+         "--operation.type", "delete_episodes", "--operation.episode_indices", "[1]")  # fmt: skip
+    assert not (cut / SIDECAR).exists()  # lerobot drops what it does not know
+    r = cli("replay", "--repo-id", "test/cut", "--root", str(cut), "--episode", "1")
+    assert r.returncode == 1 and "has no seed" in r.stderr
+
+    r = cli("carry-meta", "--root", str(cut), "--from", str(root))
+    assert r.returncode == 0 and "3 of 3 episodes" in r.stdout, r.stderr
+    assert seeds(cut) == {0: 0, 1: 2, 2: 3}
+    r = cli("replay", "--repo-id", "test/cut", "--root", str(cut), "--episode", "1", "--json")
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert out["seed"] == 2 and out["max_abs"] == 0
+
+
+def test_records_that_describe_other_episodes_are_ignored_with_a_warning(pose_recording, tmp_path):
+    root, _ = pose_recording
+    cut = tmp_path / "cut"
+    edit("--repo_id", POSE_REPO, "--root", str(root), "--new_repo_id", "test/cut", "--new_root", str(cut),
+         "--operation.type", "delete_episodes", "--operation.episode_indices", "[0]")  # fmt: skip
+    (cut / SIDECAR).parent.mkdir(parents=True)
+    shutil.copy(root / SIDECAR, cut / SIDECAR)  # the original's records, now one episode off
+    r = cli("inspect", "--repo-id", "test/cut", "--root", str(cut), "--no-plot", "--json")
+    assert r.returncode == 0
+    assert [e["success"] for e in json.loads(r.stdout)["episodes"]] == [None, None, None]
+    assert "do not match the dataset's episodes" in r.stderr and "gloverec carry-meta" in r.stderr
+    assert cli("train", "--repo-id", "test/cut", "--root", str(cut), "--steps", "5", "--out",
+               str(tmp_path / "policy")).returncode == 0  # fmt: skip
+
+
+def test_a_split_merged_back_gets_every_record_from_its_parts(pose_recording, tmp_path):
+    root, _ = pose_recording
+    edit("--repo_id", POSE_REPO, "--root", str(root), "--new_root", str(tmp_path / "split"),
+         "--operation.type", "split", "--operation.splits", '{"train": 0.5, "val": 0.5}')  # fmt: skip
+    parts = [tmp_path / "split" / name for name in ("val", "train")]
+    for part in parts:
+        assert cli("carry-meta", "--root", str(part), "--from", str(root)).returncode == 0
+    merged = tmp_path / "merged"
+    edit("--new_repo_id", "test/merged", "--new_root", str(merged), "--operation.type", "merge",
+         "--operation.repo_ids", '["test/val", "test/train"]',
+         "--operation.roots", json.dumps([str(p) for p in parts]))  # fmt: skip
+    r = cli("carry-meta", "--root", str(merged), "--from", *map(str, parts))
+    assert r.returncode == 0 and "4 of 4 episodes" in r.stdout
+    assert sorted(seeds(merged).values()) == [0, 1, 2, 3]
+
+
+def test_carry_meta_refuses_sources_without_records_in_one_line(tmp_path):
+    r = cli("carry-meta", "--root", str(tmp_path), "--from", str(tmp_path))
+    assert r.returncode == 1 and "is not a LeRobot dataset" in r.stderr and "Traceback" not in r.stderr

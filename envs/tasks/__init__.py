@@ -1,10 +1,11 @@
-"""Tasks by name, from the task registry (envs/tasks/registry.py): ``pose`` (HandPose) and ``grasp`` (HandGrasp)
-built in, more from plugins; ``make_task(name, robot)`` builds one."""
+"""Tasks by name, from the task registry (envs/tasks/registry.py): ``pose`` (HandPose), ``grasp`` (HandGrasp)
+and ``pinch`` (HandPinch) built in, more from plugins; ``make_task(name, robot)`` builds one."""
 
 from __future__ import annotations
 
 from envs.tasks.base import CAMERAS, HandEnv, TaskConfig
 from envs.tasks.hand_grasp import HandGraspConfig, HandGraspEnv
+from envs.tasks.hand_pinch import HandPinchConfig, HandPinchEnv
 from envs.tasks.hand_pose import HandPoseConfig, HandPoseEnv
 from envs.tasks.registry import TaskSpec, get_task, register_task, task_names
 
@@ -13,6 +14,8 @@ __all__ = [
     "HandEnv",
     "HandGraspConfig",
     "HandGraspEnv",
+    "HandPinchConfig",
+    "HandPinchEnv",
     "HandPoseConfig",
     "HandPoseEnv",
     "TaskConfig",

@@ -1,0 +1,306 @@
+"""HandPinch: a precision pick between the thumb and one named finger, lifted by a scripted base.
+
+Each episode draws a small object (a marble, a coin-like disc lying flat, or a cube; size, mass, friction,
+position and yaw randomised) resting on the table, and the finger that opposes the thumb (index or middle; ring
+where the robot's thumb can reach it: ``fingers``). The instruction names both: "pick up the marble between your
+thumb and middle finger", and the named finger's distal segment is lit in the scene (cameras see it). The task
+scripts the hand base as HandGrasp does: it hovers palm down with the robot's pinch point (where its thumb and
+the named finger meet, ``pinch_point``) above the object (with a small random misalignment), descends until that
+point is at the object's centre, waits while the fingers close, lifts by ``lift_m``, then holds.
+
+Success (at the end): the object is at least ``lift_m / 2`` above where it started and touches the thumb's distal
+segment and the named finger's distal segment, and no other hand body (palm, other fingers): a power grasp fails
+it. Reward: 1 on every step where that holds, else 0.
+environment_state (``pinch.*``): object position (3), orientation (4), half extents (3), shape one-hot (3),
+named finger one-hot (3: index, middle, ring).
+
+Small objects between fingertips need a finer physics step than the 2 ms of the other tasks: 1 ms
+(``max_physics_dt``), which doubles a control step's physics (bench/envs.py measures it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Annotated, Literal
+
+import mujoco
+import numpy as np
+from scipy.optimize import minimize
+
+from envs.tasks.base import HandEnv, TaskConfig
+from envs.tasks.hand_grasp import _min_jerk
+from envs.tasks.registry import register_task
+from recorder import quat
+from recorder.config import NonNegative, Positive
+from recorder.hand.kinematics import JOINTS, LIMITS, interpolate_dip
+
+SHAPES = ("marble", "disc", "cube")
+FINGERS = ("index", "middle", "ring")
+Range = tuple[float, float]
+_GEOM = {
+    "marble": mujoco.mjtGeom.mjGEOM_SPHERE,
+    "disc": mujoco.mjtGeom.mjGEOM_CYLINDER,
+    "cube": mujoco.mjtGeom.mjGEOM_BOX,
+}
+HIGHLIGHT = np.array([1.0, 0.78, 0.1, 1.0])  # the named finger's distal segment
+
+# --------------------------------------------------------------------------------------- the robot's pinch
+# The pinch is found in the wearer's joint space and mapped by the robot's joint map (configs/robots): thumb
+# (cmc flex, cmc abd, mcp, ip) and the finger (mcp flex, pip), the other fingers straight. A human pinch does not
+# close every robot's (the joint maps leave Shadow's 21 mm and LEAP's 60 mm open), so the posture is searched,
+# within the human joint limits, for the one whose robot fingertips are ``gap`` apart at one height, as an operator
+# who watches the robot hand adjusts their own.
+PINCH_JOINTS = ("thumb_cmc_flex", "thumb_cmc_abd", "thumb_mcp", "thumb_ip", "{f}_mcp_flex", "{f}_pip")
+_START = {"index": (10, 20, 25, 50, 40, 50), "middle": (15, 30, 40, 45, 35, 70), "ring": (40, 45, 10, 25, 65, 15)}
+
+
+def pinch_angles(finger: str, p) -> np.ndarray:
+    """Human joint angles (20,) rad of a thumb-``finger`` pinch with parameters ``p`` (6, degrees)."""
+    a = np.zeros(len(JOINTS))
+    for name, v in zip(PINCH_JOINTS, p):
+        a[JOINTS.index(name.format(f=finger))] = np.radians(v)
+    return interpolate_dip(np.clip(a, LIMITS[:, 0], LIMITS[:, 1]))
+
+
+def _bounds(finger: str) -> list[tuple[float, float]]:
+    return [tuple(np.degrees(LIMITS[JOINTS.index(n.format(f=finger))])) for n in PINCH_JOINTS]
+
+
+REFERENCE_GAP_MM = 16  # the pinch whose midpoint every other opening keeps
+
+
+@lru_cache(maxsize=256)
+def robot_pinch(robot: str, finger: str, gap_mm: int) -> tuple[tuple, tuple, float]:
+    """(posture parameters (6, deg), the pinch point (3, m, palm frame: the midpoint of the robot's thumb and
+    ``finger`` tips), the gap reached, m) for a robot gap of ``gap_mm``; cached per robot, finger and mm. Every
+    opening keeps the midpoint of the ``REFERENCE_GAP_MM`` pinch, so the fingertips open and close about the
+    object, and the pinch line level."""
+    r = _retargeter(robot)
+    j = r.fingers.index(finger)
+    target = gap_mm / 1000.0
+    p0 = np.array(_START[finger], float)
+    centre = None if gap_mm == REFERENCE_GAP_MM else np.array(robot_pinch(robot, finger, REFERENCE_GAP_MM)[1])
+
+    def tips(p):
+        return r.robot_tips(r.qpos(r.joint_map(pinch_angles(finger, p))))
+
+    def cost(p):
+        t = tips(p)
+        c = (np.linalg.norm(t[j] - t[0]) - target) ** 2 + 0.5 * (t[j, 2] - t[0, 2]) ** 2
+        if centre is not None:
+            c += 0.5 * np.sum(((t[0] + t[j]) / 2 - centre) ** 2)
+        return 1e4 * c + 1e-5 * np.sum((p - p0) ** 2)
+
+    start = p0 if centre is None else np.array(robot_pinch(robot, finger, REFERENCE_GAP_MM)[0])
+    best = minimize(cost, start, method="L-BFGS-B", bounds=_bounds(finger), options={"maxiter": 300})
+    t = tips(best.x)
+    return tuple(best.x), tuple((t[0] + t[j]) / 2), float(np.linalg.norm(t[j] - t[0]))
+
+
+@lru_cache(maxsize=8)
+def _retargeter(robot: str):
+    from recorder.retarget.retargeter import Retargeter  # the robot's MuJoCo model again: only for this task
+
+    return Retargeter(robot, "joint", base_rotation=False)
+
+
+def pinching_fingers(robot: str, fingers=FINGERS, tolerance_m: float = 0.004) -> tuple[str, ...]:
+    """The fingers of ``fingers`` whose tips this robot's thumb can close on (a gap under ``tolerance_m``)."""
+    have = _retargeter(robot).fingers
+    return tuple(f for f in fingers if f in have and robot_pinch(robot, f, 0)[2] <= tolerance_m)
+
+
+# --------------------------------------------------------------------------------------- the task
+@dataclass
+class HandPinchConfig(TaskConfig):
+    max_physics_dt: Annotated[float, Positive] = 0.001
+    episode_s: Annotated[float, Positive] = 5.5
+    shapes: tuple[Literal["marble", "disc", "cube"], ...] = SHAPES
+    fingers: tuple[Literal["index", "middle", "ring"], ...] = ("index", "middle")  # drawn per episode (those the
+    # robot can pinch with)
+    marble_radius: Range = (0.008, 0.012)
+    disc_size: tuple[Range, Range] = ((0.010, 0.013), (0.007, 0.009))  # radius, half thickness (m): a thick coin, a
+    # draughts piece
+    cube_half: Range = (0.008, 0.010)
+    mass_kg: Range = (0.005, 0.02)
+    friction: Range = (0.9, 1.3)
+    placement_m: Annotated[float, NonNegative] = 0.03
+    yaw_deg: Annotated[float, NonNegative] = 15.0  # the cube's faces to the pinch line, uniform in ±
+    misalignment_m: Annotated[float, NonNegative] = 0.003
+    hover_m: Annotated[float, NonNegative] = 0.06
+    min_pinch_height_m: Annotated[float, NonNegative] = 0.013  # fingertips meet at least this high (their pads
+    # clear the table)
+    hover_s: Annotated[float, NonNegative] = 0.7  # phase durations: the hand shapes the pinch high above it
+    lift_m: float = 0.08
+    descend_s: Annotated[float, Positive] = 1.0
+    close_s: Annotated[float, Positive] = 1.2
+    lift_s: Annotated[float, Positive] = 1.2
+
+    def min_episode_s(self) -> float:
+        return self.hover_s + self.descend_s + self.close_s + self.lift_s
+
+
+@register_task("pinch", env_id="gloverec/HandPinch-v0", demonstrator="recorder.demonstrator.pinch:PinchDemonstrator")
+class HandPinchEnv(HandEnv):
+    config_class = HandPinchConfig
+    workspace = (0.0, 0.0, 0.08)
+    environment_state_names = (
+        *(f"pinch.object.{k}" for k in ("x", "y", "z", "qw", "qx", "qy", "qz", "hx", "hy", "hz")),
+        *(f"pinch.object.is_{s}" for s in SHAPES),
+        *(f"pinch.finger.is_{f}" for f in FINGERS),
+    )
+
+    def __init__(self, robot: str = "glovehand", render_mode=None, config=None, **overrides):
+        super().__init__(robot, render_mode, config, **overrides)
+        self.fingers = pinching_fingers(self.robot.config.name, self.config.fingers)
+        if not self.fingers:
+            raise ValueError(
+                f"pinch task: {self.robot.config.name}'s thumb reaches none of {', '.join(self.config.fingers)}"
+            )
+        self.object_shape, self.finger = self.config.shapes[0], self.fingers[0]
+        self.object_half = np.full(3, 0.01)
+        self.schedule = {}
+
+    def _build_task(self, spec: mujoco.MjSpec) -> None:
+        colours = {"marble": [0.3, 0.5, 0.9, 1], "disc": [0.85, 0.7, 0.3, 1], "cube": [0.8, 0.35, 0.35, 1]}
+        for k, shape in enumerate(SHAPES):
+            body = spec.worldbody.add_body(name=f"pinch_{shape}", pos=[0.3 + 0.1 * k, 0.6, 0.05])
+            body.add_freejoint(name=f"pinch_{shape}")
+            body.add_geom(
+                name=f"pinch_{shape}",
+                type=_GEOM[shape],
+                size=[0.01, 0.01, 0.01],
+                rgba=colours[shape],
+                condim=6,  # torsional and rolling friction: a marble held at two points does not spin out
+                friction=[1.0, 0.01, 0.001],
+                mass=0.01,
+                solref=[0.004, 1.0],
+                priority=1,  # its friction, not the fingertip's, in its contacts
+            )
+
+    def _init_indices(self) -> None:
+        super()._init_indices()
+        m = self.model
+        self._obj = {
+            s: (m.body(f"pinch_{s}").id, m.geom(f"pinch_{s}").id, m.jnt_qposadr[m.joint(f"pinch_{s}").id])
+            for s in SHAPES
+        }
+        self._rgba = {s: m.geom_rgba[self._obj[s][1]].copy() for s in SHAPES}
+        tips = [m.site(n).id for n in self.robot.tip_sites]
+        self._distal = {f: int(m.site_bodyid[t]) for f, t in zip(self.robot.fingers, tips)}
+        self._distal_geoms = {f: np.flatnonzero(m.geom_bodyid == b) for f, b in self._distal.items()}
+        self._rgba_all = m.geom_rgba.copy()
+
+    # ------------------------------------------------------------ episode
+    def _reset_task(self) -> None:
+        m, d, rng, cfg = self.model, self.data, self.np_random, self.config
+        shape = cfg.shapes[int(rng.integers(len(cfg.shapes)))]
+        self.finger = self.fingers[int(rng.integers(len(self.fingers)))]
+        if shape == "marble":
+            r = rng.uniform(*cfg.marble_radius)
+            half = np.array([r, r, r])
+        elif shape == "disc":
+            r, h = rng.uniform(*cfg.disc_size[0]), rng.uniform(*cfg.disc_size[1])
+            half = np.array([r, r, h])
+        else:
+            half = np.full(3, rng.uniform(*cfg.cube_half))
+        self.object_shape, self.object_half = shape, half
+        mass = rng.uniform(*cfg.mass_kg)
+        m.geom_rgba[:] = self._rgba_all  # the hand's own colours, then the named finger lit
+        for g in self._distal_geoms[self.finger]:
+            m.geom_rgba[g] = HIGHLIGHT
+        for k, s in enumerate(SHAPES):
+            body, geom, qadr = self._obj[s]
+            active = s == shape
+            # parked objects float out of the way: no contacts, no gravity, invisible
+            m.geom_contype[geom] = m.geom_conaffinity[geom] = int(active)
+            m.geom_rgba[geom] = self._rgba[s] * [1, 1, 1, int(active)]
+            m.body_gravcomp[body] = 0.0 if active else 1.0
+            d.qpos[qadr : qadr + 7] = [1.5 + 0.2 * k, 1.5, 0.5, 1, 0, 0, 0]
+        body, geom, qadr = self._obj[shape]
+        m.geom_size[geom] = {"marble": [half[0], 0, 0], "disc": [half[0], half[2], 0], "cube": half}[shape]
+        m.geom_rbound[geom] = half[0] if shape == "marble" else np.linalg.norm(half)
+        m.geom_aabb[geom] = [0, 0, 0, *half]
+        m.geom_friction[geom] = [rng.uniform(*cfg.friction), 0.01, 0.001]
+        m.body_mass[body] = mass
+        if shape == "marble":
+            inertia = np.full(3, 0.4 * mass * half[0] ** 2)
+        elif shape == "disc":
+            r, h = half[0], 2 * half[2]
+            inertia = mass * np.array([(3 * r * r + h * h) / 12, (3 * r * r + h * h) / 12, r * r / 2])
+        else:
+            inertia = np.full(3, mass * (2 * half[0]) ** 2 / 6)
+        m.body_inertia[body] = inertia
+
+        xy = rng.uniform(-cfg.placement_m, cfg.placement_m, 2)
+        yaw = np.radians(rng.uniform(-cfg.yaw_deg, cfg.yaw_deg)) if shape == "cube" else 0.0
+        self.object_start = np.array([xy[0], xy[1], half[2]])
+        d.qpos[qadr : qadr + 7] = [*self.object_start, np.cos(yaw / 2), 0, 0, np.sin(yaw / 2)]
+        self._object = (body, geom, qadr)
+
+        # the base script: the robot's pinch point at the object's centre, palm down
+        _, point, _ = robot_pinch(self.robot.config.name, self.finger, self.pinch_gap_mm())
+        err = rng.uniform(-cfg.misalignment_m, cfg.misalignment_m, 2)
+        height = max(self.object_start[2], cfg.min_pinch_height_m)
+        self._grasp_pos = np.array([xy[0] + err[0], xy[1] + err[1], height]) - np.array(point)
+        t = 0.0
+        self.schedule = {}
+        phases = (("hover", cfg.hover_s), ("descend", cfg.descend_s), ("close", cfg.close_s), ("lift", cfg.lift_s),
+                  ("hold", 0.0))  # fmt: skip
+        for phase, dur in phases:
+            self.schedule[phase] = t
+            t += dur
+        self.schedule["end"] = cfg.episode_s
+
+    def pinch_gap_mm(self) -> int:
+        """The object's width between the fingertips, mm (the cube's and disc's across, the marble's diameter)."""
+        return int(round(2000 * self.object_half[0]))
+
+    def _base_target(self, t: float):
+        s = self.schedule
+        pos = self._grasp_pos.copy()
+        pos[2] += self.config.hover_m * (1.0 - _min_jerk((t - s["descend"]) / self.config.descend_s))
+        pos[2] += self.config.lift_m * _min_jerk((t - s["lift"]) / self.config.lift_s)
+        return pos, quat.IDENTITY.copy()
+
+    def object_pose(self) -> np.ndarray:
+        qadr = self._object[2]
+        return self.data.qpos[qadr : qadr + 7].copy()
+
+    def _environment_state(self) -> np.ndarray:
+        shape = np.array([s == self.object_shape for s in SHAPES], float)
+        finger = np.array([f == self.finger for f in FINGERS], float)
+        return np.concatenate((self.object_pose(), self.object_half, shape, finger))
+
+    def touching(self) -> set[int]:
+        """The hand bodies that touch the object now."""
+        d, m, geom = self.data, self.model, self._object[1]
+        bodies = set()
+        for c in d.contact[: d.ncon]:
+            for a, b in ((c.geom1, c.geom2), (c.geom2, c.geom1)):
+                if a == geom and b in self._robot_geoms:
+                    bodies.add(int(m.geom_bodyid[b]))
+        return bodies
+
+    def pinched(self) -> bool:
+        """Thumb and named finger distal segments on the object, no other hand body, and lifted."""
+        lifted = self.object_pose()[2] - self.object_start[2] >= 0.5 * self.config.lift_m
+        want = {self._distal["thumb"], self._distal[self.finger]}
+        return bool(lifted and self.touching() == want)
+
+    def _evaluate(self):
+        ok = self.pinched()
+        end = self.t >= self.config.episode_s - 1e-9
+        return ok and end, end, float(ok)
+
+    def _info(self, success: bool) -> dict:
+        return {**super()._info(success), "object": self.object_shape, "finger": self.finger}
+
+    def instruction(self) -> str:
+        return f"pick up the {self.object_shape} between your thumb and {self.finger} finger"
+
+    def instructions(self) -> tuple[str, ...]:
+        return tuple(
+            f"pick up the {s} between your thumb and {f} finger" for s in self.config.shapes for f in self.fingers
+        )

@@ -104,10 +104,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    # A process inherits its parent thread's blocked signals across exec: started by a program that had SIGINT
-    # blocked (a test runner's thread, a supervisor), Ctrl-C would never arrive and a recording would run to its
-    # end. Unblocked here, so Ctrl-C and `kill` always stop a session.
+    # A process inherits its parent's ignored signals and its parent thread's blocked ones across exec, and
+    # Python keeps an ignored SIGINT ignored: started by a program that ignored or blocked it (a test runner's
+    # worker, a supervisor, a background job), Ctrl-C would never arrive and a recording would run to its end.
+    # Unblocked and handled here, so Ctrl-C and `kill -INT` always stop a session.
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     signal.signal(signal.SIGTERM, _interrupt)  # `kill` ends a stream like Ctrl-C: files are closed cleanly
     try:
         return args.func(args) or 0

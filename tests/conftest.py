@@ -97,8 +97,8 @@ class CliResult(subprocess.CompletedProcess):
 def cli(*args: str, env: dict | None = None, **_) -> CliResult:
     """Run `gloverec ARGS` in this process, for what no process boundary is part of (argument handling, error
     messages, inspect, the hub, training): its exit code, stdout and stderr as a child's would be, with ``env``
-    (variables set for the call). The global state a command sets (the SIGTERM handler, torch's thread count, the
-    root logger's level) is put back; other keyword arguments (a child's ``timeout``) are ignored."""
+    (variables set for the call). The global state a command sets (the SIGTERM and SIGINT handlers, torch's thread
+    count, the root logger's level) is put back; other keyword arguments (a child's ``timeout``) are ignored."""
     import io
     import logging
     from contextlib import redirect_stderr, redirect_stdout
@@ -108,7 +108,7 @@ def cli(*args: str, env: dict | None = None, **_) -> CliResult:
     from recorder.cli import main
 
     out, err = io.StringIO(), io.StringIO()
-    handler, level = signal.getsignal(signal.SIGTERM), logging.getLogger().level
+    handlers, level = {n: signal.getsignal(n) for n in (signal.SIGTERM, signal.SIGINT)}, logging.getLogger().level
     threads = torch.get_num_threads()
     saved = {k: os.environ.get(k) for k in (env or {})}
     os.environ.update({k: str(v) for k, v in (env or {}).items()})
@@ -119,7 +119,8 @@ def cli(*args: str, env: dict | None = None, **_) -> CliResult:
             except SystemExit as exc:  # argparse: usage errors and --help
                 code = exc.code if isinstance(exc.code, int) else 1
     finally:
-        signal.signal(signal.SIGTERM, handler)
+        for n, handler in handlers.items():
+            signal.signal(n, handler)
         logging.getLogger().setLevel(level)
         torch.set_num_threads(threads)
         for k, v in saved.items():

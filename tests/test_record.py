@@ -428,14 +428,15 @@ def test_a_glove_without_hand_frames_ends_the_session_saying_why(tmp_path):
 
 @pytest.mark.process
 def test_ctrl_c_keeps_the_saved_episodes_and_says_so(tmp_path):
-    """Started with SIGINT blocked, as a child of a thread that blocks it inherits (a test runner's, a
-    supervisor's: it happened in this suite), Ctrl-C still stops the session."""
+    """Started with SIGINT ignored and blocked, as a child inherits them from a parent that ignores or blocks it
+    (a test runner's worker, a supervisor: it happened in this suite), Ctrl-C still stops the session."""
     root = tmp_path / "ds"
     proc = subprocess.Popen(
         [sys.executable, "-m", "recorder.cli", "record", "--view", "none", "--episodes", "50", "--root", str(root),
          "--repo-id", "test/int"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        preexec_fn=lambda: signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT}),
+        preexec_fn=lambda: (signal.signal(signal.SIGINT, signal.SIG_IGN),
+                            signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})),
     )  # fmt: skip
     lines = []
     for line in proc.stderr:

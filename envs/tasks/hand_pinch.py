@@ -43,7 +43,7 @@ _GEOM = {
     "disc": mujoco.mjtGeom.mjGEOM_CYLINDER,
     "cube": mujoco.mjtGeom.mjGEOM_BOX,
 }
-HIGHLIGHT = np.array([1.0, 0.78, 0.1, 1.0])  # the named finger's distal segment
+HIGHLIGHT = np.array([0.9, 0.2, 0.8, 1.0])  # the named finger's distal segment (magenta: no object's colour)
 
 # --------------------------------------------------------------------------------------- the robot's pinch
 # The pinch is found in the wearer's joint space and mapped by the robot's joint map (configs/robots): thumb
@@ -129,7 +129,7 @@ class HandPinchConfig(TaskConfig):
     yaw_deg: Annotated[float, NonNegative] = 15.0  # the cube's faces to the pinch line, uniform in ±
     misalignment_m: Annotated[float, NonNegative] = 0.003
     hover_m: Annotated[float, NonNegative] = 0.06
-    min_pinch_height_m: Annotated[float, NonNegative] = 0.013  # fingertips meet at least this high (their pads
+    min_pinch_height_m: Annotated[float, NonNegative] = 0.011  # fingertips meet at least this high (their pads
     # clear the table)
     hover_s: Annotated[float, NonNegative] = 0.7  # phase durations: the hand shapes the pinch high above it
     lift_m: float = 0.08
@@ -190,7 +190,7 @@ class HandPinchEnv(HandEnv):
         tips = [m.site(n).id for n in self.robot.tip_sites]
         self._distal = {f: int(m.site_bodyid[t]) for f, t in zip(self.robot.fingers, tips)}
         self._distal_geoms = {f: np.flatnonzero(m.geom_bodyid == b) for f, b in self._distal.items()}
-        self._rgba_all = m.geom_rgba.copy()
+        self._rgba_all, self._matid_all = m.geom_rgba.copy(), m.geom_matid.copy()
 
     # ------------------------------------------------------------ episode
     def _reset_task(self) -> None:
@@ -207,9 +207,9 @@ class HandPinchEnv(HandEnv):
             half = np.full(3, rng.uniform(*cfg.cube_half))
         self.object_shape, self.object_half = shape, half
         mass = rng.uniform(*cfg.mass_kg)
-        m.geom_rgba[:] = self._rgba_all  # the hand's own colours, then the named finger lit
-        for g in self._distal_geoms[self.finger]:
-            m.geom_rgba[g] = HIGHLIGHT
+        m.geom_rgba[:], m.geom_matid[:] = self._rgba_all, self._matid_all  # the hand's own look, then the named
+        for g in self._distal_geoms[self.finger]:  # finger lit (a material would hide the colour: none)
+            m.geom_rgba[g], m.geom_matid[g] = HIGHLIGHT, -1
         for k, s in enumerate(SHAPES):
             body, geom, qadr = self._obj[s]
             active = s == shape

@@ -318,15 +318,19 @@ class HandEnv(gym.Env):
         """Positions (nu,) of the actuators' joints, comparable with ctrl targets."""
         return self.data.actuator_length.copy()
 
-    def hand_contacts(self, geom: int) -> int:
-        """How many distinct hand bodies touch ``geom``."""
+    def hand_bodies_touching(self, geom: int) -> set[int]:
+        """The hand bodies (ids) that touch ``geom`` now."""
         d, m = self.data, self.model
         bodies = set()
         for c in d.contact[: d.ncon]:
             for a, b in ((c.geom1, c.geom2), (c.geom2, c.geom1)):
                 if a == geom and b in self._robot_geoms:
-                    bodies.add(m.geom_bodyid[b])
-        return len(bodies)
+                    bodies.add(int(m.geom_bodyid[b]))
+        return bodies
+
+    def hand_contacts(self, geom: int) -> int:
+        """How many distinct hand bodies touch ``geom``."""
+        return len(self.hand_bodies_touching(geom))
 
     # ------------------------------------------------------------ for subclasses
     environment_state_names: tuple = ()

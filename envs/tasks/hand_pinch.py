@@ -276,13 +276,7 @@ class HandPinchEnv(HandEnv):
 
     def touching(self) -> set[int]:
         """The hand bodies that touch the object now."""
-        d, m, geom = self.data, self.model, self._object[1]
-        bodies = set()
-        for c in d.contact[: d.ncon]:
-            for a, b in ((c.geom1, c.geom2), (c.geom2, c.geom1)):
-                if a == geom and b in self._robot_geoms:
-                    bodies.add(int(m.geom_bodyid[b]))
-        return bodies
+        return self.hand_bodies_touching(self._object[1])
 
     def pinched(self) -> bool:
         """Thumb and named finger distal segments on the object, no other hand body, and lifted."""

@@ -82,7 +82,8 @@ def robot_pinch(robot: str, finger: str, gap_mm: int) -> tuple[tuple, tuple, flo
     j = r.fingers.index(finger)
     target = gap_mm / 1000.0
     p0 = np.array(_START[finger], float)
-    centre = None if gap_mm == REFERENCE_GAP_MM else np.array(robot_pinch(robot, finger, REFERENCE_GAP_MM)[1])
+    reference = None if gap_mm == REFERENCE_GAP_MM else robot_pinch(robot, finger, REFERENCE_GAP_MM)
+    centre = None if reference is None else np.array(reference[1])
 
     def tips(p):
         return r.robot_tips(r.qpos(r.joint_map(pinch_angles(finger, p))))
@@ -94,7 +95,7 @@ def robot_pinch(robot: str, finger: str, gap_mm: int) -> tuple[tuple, tuple, flo
             c += 0.5 * np.sum(((t[0] + t[j]) / 2 - centre) ** 2)
         return 1e4 * c + 1e-5 * np.sum((p - p0) ** 2)
 
-    start = p0 if centre is None else np.array(robot_pinch(robot, finger, REFERENCE_GAP_MM)[0])
+    start = p0 if reference is None else np.array(reference[0])
     best = minimize(cost, start, method="L-BFGS-B", bounds=_bounds(finger), options={"maxiter": 300})
     t = tips(best.x)
     return tuple(best.x), tuple((t[0] + t[j]) / 2), float(np.linalg.norm(t[j] - t[0]))

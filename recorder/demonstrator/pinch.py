@@ -13,6 +13,7 @@ import numpy as np
 from envs.tasks.hand_pinch import pinch_angles, robot_pinch
 from recorder.demonstrator.motion import DemoMotion
 from recorder.hand.gestures import GESTURES
+from recorder.hand.kinematics import JOINTS
 
 
 @dataclass(frozen=True)
@@ -60,8 +61,6 @@ class PinchDemonstrator:
     @staticmethod
     def _with_others_straight(start: np.ndarray, pinch: np.ndarray, finger: str) -> np.ndarray:
         """The pinch's thumb and finger, the open hand's other fingers."""
-        from recorder.hand.kinematics import JOINTS
-
         out = start.copy()
         for k, name in enumerate(JOINTS):
             if name.startswith(("thumb_", f"{finger}_")):

@@ -8,9 +8,16 @@ success rates.
   the recorder could run the simulation (goal: >= 1000 frames/s).
 - render: one camera, 128x128 and 224x224, per frame (update_scene + render + read back).
 - retarget: per frame on a 30 Hz gestures motion, joint map and fingertip IK (warm-started).
+- step ratio: each task's step cost over HandGrasp's on the same robot, measured in the same run (goal for the
+  dexterous tasks: <= 1.5).
 - success: scripted demonstrator -> retarget (joint map) -> env, direct and through the SyntheticGlove's
-  noisy pose output (0.5 deg, 20 ms late); episodes with seeds 0..N-1.
+  noisy pose output (0.5 deg, 20 ms late); episodes with seeds 0..N-1, on glovehand, Shadow and LEAP.
+- trivial: policies that must not solve a task, on the same seeds: the zero action, the open hand, a constant fist,
+  and the replay of a demonstration recorded for another instruction or goal (pinch: the other finger; keys:
+  another sequence; turn: the opposite direction; grasp: another shape; pose: another gesture). Goal <= 5 %.
 All costs are medians over ``--runs`` runs.
+
+    --robots glovehand,shadow,leap --tasks pinch,keys,turn   a subset
 """
 
 from __future__ import annotations
@@ -31,11 +38,21 @@ from _common import write_results  # noqa: E402
 
 import envs  # noqa: E402
 from recorder.demonstrator.rollout import run_episode, success_rate  # noqa: E402
+from recorder.hand.gestures import GESTURES  # noqa: E402
 from recorder.hand.motion import Motion  # noqa: E402
 from recorder.retarget import Retargeter  # noqa: E402
 
-ROBOTS = ("glovehand", "shadow")
+ROBOTS = ("glovehand", "shadow")  # the costs
+SUCCESS_ROBOTS = ("glovehand", "shadow", "leap")
 TASKS = envs.task_names()  # every registered task
+# what an episode's instruction (or lit sequence, or mark) asks for: a demonstration for another one is "wrong"
+GOAL = {
+    "pose": lambda e: e.goal_name,
+    "grasp": lambda e: e.object_shape,
+    "pinch": lambda e: e.finger,
+    "keys": lambda e: e.sequence,
+    "turn": lambda e: bool(e.target > 0),
+}
 
 
 def _median(fn, n: int, runs: int) -> dict:
@@ -97,16 +114,59 @@ def retarget_cost(robot: str, mode: str, runs: int, n: int = 300) -> dict:
     return out
 
 
+def _play(env, seed: int, policy) -> bool:
+    env.reset(seed=seed)
+    k = 0
+    while True:
+        _, _, terminated, truncated, info = env.step(policy(k))
+        k += 1
+        if terminated or truncated:
+            return bool(info["is_success"])
+
+
+def trivial(task: str, robot: str, episodes: int) -> dict:
+    """Successes of the trivial policies over seeds 0..episodes-1."""
+    env = envs.make(task, robot)
+    u = env.unwrapped
+    r = Retargeter(robot, base_rotation=u.config.base_rotation)
+    fixed = {
+        "zero": np.zeros(env.action_space.shape, np.float32),
+        "open hand": r(GESTURES["open"])[0],
+        "fist": r(GESTURES["fist"])[0],
+    }
+    out = {name: sum(_play(env, s, lambda k, a=a: a) for s in range(episodes)) for name, a in fixed.items()}
+    wrong = 0
+    for seed in range(episodes):
+        env.reset(seed=seed)
+        goal = GOAL[task](u)
+        other = next(s for s in range(10_000 + seed, 20_000) if env.reset(seed=s) and GOAL[task](u) != goal)
+        actions = []
+        run_episode(env, r, other, on_step=lambda o, a, i: actions.append(a))
+        wrong += _play(env, seed, lambda k: actions[min(k, len(actions) - 1)])
+    out["wrong-instruction replay"] = wrong
+    env.close()
+    return {name: {"successes": n, "episodes": episodes, "rate": round(n / episodes, 3)} for name, n in out.items()}
+
+
 def main(argv=None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--runs", type=int, default=5)
     p.add_argument("--episodes", type=int, default=50)
+    p.add_argument("--robots", default=",".join(SUCCESS_ROBOTS), help="robots for success and trivial policies")
+    p.add_argument("--tasks", default=",".join(TASKS))
     args = p.parse_args(argv)
-    results = {"step": {}, "render": {}, "retarget": {}, "success": {}}
+    tasks = args.tasks.split(",")
+    for t in tasks:
+        envs.get_task(t)  # an unknown task: its one-line error, before any work
+    results = {"step": {}, "step_ratio_to_grasp": {}, "render": {}, "retarget": {}, "success": {}, "trivial": {}}
     for robot in ROBOTS:
-        for task in TASKS:
-            results["step"][f"{task}/{robot}"] = r = step_cost(task, robot, args.runs)
-            print(f"step {task}/{robot}: {r['us_per_frame']} us/frame ({r['frames_per_s']} frames/s)", flush=True)
+        grasp = step_cost("grasp", robot, args.runs)
+        for task in tasks:
+            results["step"][f"{task}/{robot}"] = r = grasp if task == "grasp" else step_cost(task, robot, args.runs)
+            ratio = round(r["us_per_frame"] / grasp["us_per_frame"], 2)
+            results["step_ratio_to_grasp"][f"{task}/{robot}"] = ratio
+            print(f"step {task}/{robot}: {r['us_per_frame']} us/frame ({r['frames_per_s']} frames/s), "
+                  f"{ratio}x HandGrasp", flush=True)  # fmt: skip
         for size in (128, 224):
             results["render"][f"{robot}/{size}x{size}"] = r = render_cost(robot, size, args.runs)
             print(f"render {robot} {size}x{size}: {r['us_per_frame']} us/frame", flush=True)
@@ -116,14 +176,17 @@ def main(argv=None) -> None:
                 f"retarget {robot} {mode}: {r['us_per_frame']} us/frame, tip error {r['mean_tip_error_mm']} mm",
                 flush=True,
             )
-    for robot in ROBOTS:
-        for task in TASKS:
+    for robot in args.robots.split(","):
+        for task in tasks:
             for via in ("direct", "glove"):
                 s = success_rate(task, robot, args.episodes, via)
                 results["success"][f"{task}/{robot}/{via}"] = {
                     k: s[k] for k in ("success_rate", "successes", "episodes", "mean_tip_error_mm")
                 }
                 print(f"success {task}/{robot}/{via}: {s['successes']}/{s['episodes']}", flush=True)
+            results["trivial"][f"{task}/{robot}"] = t = trivial(task, robot, args.episodes)
+            print(f"trivial {task}/{robot}: " + ", ".join(f"{k} {v['successes']}/{v['episodes']}" for k, v in t.items()),
+                  flush=True)  # fmt: skip
     write_results("envs", results)
 
 

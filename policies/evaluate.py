@@ -94,6 +94,8 @@ class DemonstratorAgent:
         self.motion = self.demo.plan(self.env, seed=seed)
 
     def act(self, obs: dict) -> np.ndarray:
+        if self.env.steps:
+            self.motion.watch(self.env)  # what the last step did
         block = self.motion.at([self.env.t])
         action, _ = self.retarget(block.angles[0], block.palm_quat[0])
         return action

@@ -1,12 +1,14 @@
 """Tasks by name, from the task registry (envs/tasks/registry.py): ``pose`` (HandPose), ``grasp`` (HandGrasp)
-and ``pinch`` (HandPinch) built in, more from plugins; ``make_task(name, robot)`` builds one."""
+and ``pinch`` (HandPinch), ``keys`` (HandKeys) and ``turn`` (HandTurn) built in, more from plugins; ``make_task(name, robot)`` builds one."""
 
 from __future__ import annotations
 
 from envs.tasks.base import CAMERAS, HandEnv, TaskConfig
 from envs.tasks.hand_grasp import HandGraspConfig, HandGraspEnv
+from envs.tasks.hand_keys import HandKeysConfig, HandKeysEnv
 from envs.tasks.hand_pinch import HandPinchConfig, HandPinchEnv
 from envs.tasks.hand_pose import HandPoseConfig, HandPoseEnv
+from envs.tasks.hand_turn import HandTurnConfig, HandTurnEnv
 from envs.tasks.registry import TaskSpec, get_task, register_task, task_names
 
 __all__ = [
@@ -14,10 +16,14 @@ __all__ = [
     "HandEnv",
     "HandGraspConfig",
     "HandGraspEnv",
+    "HandKeysConfig",
+    "HandKeysEnv",
     "HandPinchConfig",
     "HandPinchEnv",
     "HandPoseConfig",
     "HandPoseEnv",
+    "HandTurnConfig",
+    "HandTurnEnv",
     "TaskConfig",
     "TaskSpec",
     "get_task",

@@ -4,7 +4,7 @@ stepped at a fixed control rate, observed the way LeRobot datasets store it.
 Scene: a floor (the table top, z = 0), lights, cameras, and the hand: its root body has a free joint welded
 (soft, stiff) to a mocap body, the "base target", with gravity compensation on every hand body. The base
 target carries the glove palm frame; the task scripts its position and nominal orientation, and the action
-rotates it (the glove's palm orientation). A weld rather than a kinematic parent gives the hand real
+rotates it (the glove's palm orientation), about the palm frame's origin or a task's ``pivot``. A weld rather than a kinematic parent gives the hand real
 velocities, so friction carries a held object along.
 
 Action (float32): the actuators' position targets (ctrl ranges), then, with ``base_rotation``, the palm
@@ -86,12 +86,13 @@ class HandEnv(gym.Env):
     ``_base_target(t)``, ``_environment_state()`` (+ names), ``_evaluate()`` and ``instruction()``, and register
     with ``@register_task(name, ...)`` (envs/tasks/registry.py), which sets ``task_name``. Optional view hooks:
     ``goal_qpos(qpos, goal)`` (a target the live view draws as a ghost) and ``schedule`` ({move: start time}: the
-    view's "lift in 1.2 s")."""
+    view's "lift in 1.2 s") and ``guidance()`` (a line for the operator now: "press with your ring", "turn 40° more")."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
     config_class = TaskConfig
     task_name = "base"
     workspace = (0.0, 0.0, 0.25)  # where the cameras look
+    pivot = None  # the point (palm frame, m) the action's palm rotation turns the hand about; None: the palm origin
 
     def __init__(self, robot: str = "glovehand", render_mode: str | None = None, config=None, **overrides):
         self.config = config if config is not None else self.config_class.load(self.task_name, **overrides)
@@ -269,7 +270,10 @@ class HandEnv(gym.Env):
             self._base_rot = quat.from_rotvec(rv)
         self.t = (self.steps + 1) / self.config.control_hz
         pos, q = self._base_target(self.t)
-        self._set_base_target(pos, quat.mul(q, self._base_rot))
+        turned = quat.mul(q, self._base_rot)
+        if self.pivot is not None:  # the palm turns about the task's pivot, not about the palm frame's origin
+            pos = pos + quat.rotate(q, self.pivot) - quat.rotate(turned, self.pivot)
+        self._set_base_target(pos, turned)
         mujoco.mj_step(self.model, self.data, nstep=self.n_substeps)
         self.steps += 1
         success, terminated, reward = self._evaluate()
@@ -334,6 +338,10 @@ class HandEnv(gym.Env):
 
     # ------------------------------------------------------------ for subclasses
     environment_state_names: tuple = ()
+
+    def guidance(self) -> str | None:
+        """What the operator should do now, in a few words, for the live view (None: its schedule's next move)."""
+        return None
 
     def instruction(self) -> str:
         """The episode's instruction, as a person reads it and a dataset's ``task`` stores it (after ``reset``)."""

@@ -28,14 +28,14 @@ from typing import Annotated, Literal
 
 import mujoco
 import numpy as np
-from scipy.optimize import minimize
 
+from envs.tasks import postures
 from envs.tasks.base import HandEnv, TaskConfig
 from envs.tasks.hand_grasp import _min_jerk
 from envs.tasks.registry import register_task
 from recorder import quat
 from recorder.config import NonNegative, Positive
-from recorder.hand.kinematics import JOINTS, LIMITS, interpolate_dip
+from recorder.hand.kinematics import JOINTS
 
 SHAPES = ("marble", "disc", "cube")
 FINGERS = ("index", "middle", "ring")
@@ -48,69 +48,59 @@ _GEOM = {
 HIGHLIGHT = np.array([0.9, 0.2, 0.8, 1.0])  # the named finger's distal segment (magenta: no object's colour)
 
 # --------------------------------------------------------------------------------------- the robot's pinch
-# The pinch is found in the wearer's joint space and mapped by the robot's joint map (configs/robots): thumb
-# (cmc flex, cmc abd, mcp, ip) and the finger (mcp flex, pip), the other fingers straight. A human pinch does not
-# close every robot's (the joint maps leave Shadow's 21 mm and LEAP's 60 mm open), so the posture is searched,
-# within the human joint limits, for the one whose robot fingertips are ``gap`` apart at one height, as an operator
-# who watches the robot hand adjusts their own.
+# The pinch is a wearer's posture (envs/tasks/postures.py): thumb (cmc flex, cmc abd, mcp, ip) and the finger (mcp
+# flex, pip), the other fingers straight. A human pinch does not close every robot's (the joint maps leave Shadow's
+# 21 mm and LEAP's 60 mm open), so the posture is searched for the one whose robot fingertips are ``gap`` apart at
+# one height.
 PINCH_JOINTS = ("thumb_cmc_flex", "thumb_cmc_abd", "thumb_mcp", "thumb_ip", "{f}_mcp_flex", "{f}_pip")
 _START = {"index": (10, 20, 25, 50, 40, 50), "middle": (15, 30, 40, 45, 35, 70), "ring": (40, 45, 10, 25, 65, 15)}
 
 
+def _joints(finger: str) -> tuple[str, ...]:
+    return tuple(n.format(f=finger) for n in PINCH_JOINTS)
+
+
 def pinch_angles(finger: str, p) -> np.ndarray:
     """Human joint angles (20,) rad of a thumb-``finger`` pinch with parameters ``p`` (6, degrees)."""
-    a = np.zeros(len(JOINTS))
-    for name, v in zip(PINCH_JOINTS, p):
-        a[JOINTS.index(name.format(f=finger))] = np.radians(v)
-    return interpolate_dip(np.clip(a, LIMITS[:, 0], LIMITS[:, 1]))
-
-
-def _bounds(finger: str) -> list[tuple[float, float]]:
-    return [tuple(np.degrees(LIMITS[JOINTS.index(n.format(f=finger))])) for n in PINCH_JOINTS]
+    return postures.posture(np.zeros(len(JOINTS)), _joints(finger), p)
 
 
 REFERENCE_GAP_MM = 16  # the pinch whose midpoint every other opening keeps
 
 
-@lru_cache(maxsize=256)
-def robot_pinch(robot: str, finger: str, gap_mm: int) -> tuple[tuple, tuple, float]:
-    """(posture parameters (6, deg), the pinch point (3, m, palm frame: the midpoint of the robot's thumb and
-    ``finger`` tips), the gap reached, m) for a robot gap of ``gap_mm``; cached per robot, finger and mm. Every
-    opening keeps the midpoint of the ``REFERENCE_GAP_MM`` pinch, so the fingertips open and close about the
-    object, and the pinch line level."""
-    r = _retargeter(robot)
-    j = r.fingers.index(finger)
+@lru_cache(maxsize=512)
+def robot_pinch(robot: str, finger: str, gap_mm: int, about_mm: int = REFERENCE_GAP_MM) -> tuple:
+    """(posture parameters (6, deg), the pinch point (3, m, palm frame: the midpoint of the nearest points of the
+    robot's thumb and ``finger`` pads), the gap reached (m), the pinch line (3, unit, thumb to finger)) for a gap of
+    ``gap_mm`` between the two distal segments' surfaces (what an object between them must span); cached per robot,
+    finger and mm. Every opening keeps the pinch point and line of the ``about_mm`` pinch (by default
+    ``REFERENCE_GAP_MM``), so the fingertips open and close along one line through the object (not dragging it
+    sideways), and the pinch line level."""
+    j = postures.retargeter(robot).fingers.index(finger)
     target = gap_mm / 1000.0
-    p0 = np.array(_START[finger], float)
-    reference = None if gap_mm == REFERENCE_GAP_MM else robot_pinch(robot, finger, REFERENCE_GAP_MM)
-    centre = None if reference is None else np.array(reference[1])
+    if gap_mm == about_mm:  # the pinch to keep: its own midpoint, from the reference posture
+        centre = line = None
+        start = _START[finger] if about_mm == REFERENCE_GAP_MM else robot_pinch(robot, finger, REFERENCE_GAP_MM)[0]
+    else:
+        anchor = robot_pinch(robot, finger, about_mm, about_mm)
+        start, centre, line = anchor[0], np.array(anchor[1]), np.array(anchor[3])
 
-    def tips(p):
-        return r.robot_tips(r.qpos(r.joint_map(pinch_angles(finger, p))))
+    def cost(t):
+        gap, mid, direction = postures.pad_gap(robot, "thumb", finger)
+        c = (gap - target) ** 2 + 0.5 * (t[j, 2] - t[0, 2]) ** 2
+        if centre is not None:  # a 0.02 rad turn of the line costs what 1 mm off the centre does
+            c += 0.5 * np.sum((mid - centre) ** 2) + 0.5 * 0.05**2 * np.sum((direction - line) ** 2)
+        return c
 
-    def cost(p):
-        t = tips(p)
-        c = (np.linalg.norm(t[j] - t[0]) - target) ** 2 + 0.5 * (t[j, 2] - t[0, 2]) ** 2
-        if centre is not None:
-            c += 0.5 * np.sum(((t[0] + t[j]) / 2 - centre) ** 2)
-        return 1e4 * c + 1e-5 * np.sum((p - p0) ** 2)
-
-    start = p0 if reference is None else np.array(reference[0])
-    best = minimize(cost, start, method="L-BFGS-B", bounds=_bounds(finger), options={"maxiter": 300})
-    t = tips(best.x)
-    return tuple(best.x), tuple((t[0] + t[j]) / 2), float(np.linalg.norm(t[j] - t[0]))
-
-
-@lru_cache(maxsize=8)
-def _retargeter(robot: str):
-    from recorder.retarget.retargeter import Retargeter  # the robot's MuJoCo model again: only for this task
-
-    return Retargeter(robot, "joint", base_rotation=False)
+    p = postures.search(robot, np.zeros(len(JOINTS)), _joints(finger), start, cost)
+    postures.robot_tips(robot, pinch_angles(finger, p))
+    gap, mid, direction = postures.pad_gap(robot, "thumb", finger)
+    return tuple(p), tuple(mid), gap, tuple(direction)
 
 
 def pinching_fingers(robot: str, fingers=FINGERS, tolerance_m: float = 0.004) -> tuple[str, ...]:
     """The fingers of ``fingers`` whose tips this robot's thumb can close on (a gap under ``tolerance_m``)."""
-    have = _retargeter(robot).fingers
+    have = postures.retargeter(robot).fingers
     return tuple(f for f in fingers if f in have and robot_pinch(robot, f, 0)[2] <= tolerance_m)
 
 
@@ -242,7 +232,7 @@ class HandPinchEnv(HandEnv):
         self._object = (body, geom, qadr)
 
         # the base script: the robot's pinch point at the object's centre, palm down
-        _, point, _ = robot_pinch(self.robot.config.name, self.finger, self.pinch_gap_mm())
+        point = robot_pinch(self.robot.config.name, self.finger, self.pinch_gap_mm())[1]
         err = rng.uniform(-cfg.misalignment_m, cfg.misalignment_m, 2)
         height = max(self.object_start[2], cfg.min_pinch_height_m)
         self._grasp_pos = np.array([xy[0] + err[0], xy[1] + err[1], height]) - np.array(point)

@@ -25,15 +25,20 @@ class DemoMotion(SampledMotion):
         tremor_deg: float = 0.05,
         palm_deg: float = 3.0,
         palm_pos=(0.0, 0.0, 0.0),
+        palm_turns=None,
     ):
         """times (k,) ascending s; poses (k, 20) rad: the hand is at poses[i] at times[i], holds before the
-        first and after the last, and moves with minimum jerk in between (equal poses: a hold)."""
+        first and after the last, and moves with minimum jerk in between (equal poses: a hold). palm_turns (k, 3)
+        rad: the palm's rotation vector (palm axes) at each keyframe, on the same minimum-jerk path (default 0)."""
         super().__init__(rate_hz)
         self.times = np.asarray(times, float)
         self.poses = clip(np.asarray(poses, float))
         if self.times.ndim != 1 or len(self.times) != len(self.poses) or np.any(np.diff(self.times) < 0):
             raise ValueError("keyframe times must be ascending, one per pose")
         self.palm_pos = np.asarray(palm_pos, float)
+        self.palm_turns = np.zeros((len(self.times), 3)) if palm_turns is None else np.asarray(palm_turns, float)
+        if self.palm_turns.shape != (len(self.times), 3):
+            raise ValueError("palm turns must be one rotation vector per keyframe")
         self._wander = Sines(rng, N_JOINTS, 2, 0.1, 0.5, np.radians(wander_deg))
         self._tremor = Sines(rng, N_JOINTS, 2, 8.0, 12.0, np.radians(tremor_deg))
         self._palm = Sines(rng, 3, 2, 0.05, 0.4, np.radians(palm_deg))
@@ -42,14 +47,39 @@ class DemoMotion(SampledMotion):
     def duration(self) -> float:
         return float(self.times[-1])
 
-    def keyframe_angles(self, t) -> np.ndarray:
-        """The keyframe path alone (no wander or tremor), (n, 20) rad."""
+    def _keyframes(self, t, values) -> np.ndarray:
         t = np.atleast_1d(np.asarray(t, float))
         k = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(self.times) - 1)
         k1 = np.minimum(k + 1, len(self.times) - 1)
         span = self.times[k1] - self.times[k]
         s = np.where(span > 0, (t - self.times[k]) / np.where(span > 0, span, 1.0), 1.0)
-        return self.poses[k] + (self.poses[k1] - self.poses[k]) * min_jerk(np.clip(s, 0.0, 1.0))[:, None]
+        return values[k] + (values[k1] - values[k]) * min_jerk(np.clip(s, 0.0, 1.0))[:, None]
+
+    def keyframe_angles(self, t) -> np.ndarray:
+        """The keyframe path alone (no wander or tremor), (n, 20) rad."""
+        return self._keyframes(t, self.poses)
+
+    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0)) -> None:
+        """A correction while demonstrating: from ``at_s`` on, spend ``duration_s`` turning the palm by
+        ``palm_delta`` (a rotation vector, palm axes; zeros: a pause), then go on with the rest of the plan that much
+        later (and turned by that much). ``at_s`` must fall in a hold (between two equal keyframes): the path
+        before it is unchanged, so samples already taken stay valid."""
+        at_s = float(at_s)
+        k = int(np.searchsorted(self.times, at_s, side="right"))
+        if 0 < k < len(self.times) and not (
+            np.allclose(self.poses[k - 1], self.poses[k]) and np.allclose(self.palm_turns[k - 1], self.palm_turns[k])
+        ):
+            raise ValueError(f"a correction at {at_s:.2f} s falls inside a move, not a hold")
+        delta = np.asarray(palm_delta, float)
+        pose, turn = self.keyframe_angles([at_s])[0], self._keyframes([at_s], self.palm_turns)[0]
+        self.times = np.concatenate((self.times[:k], [at_s, at_s + duration_s], self.times[k:] + duration_s))
+        self.poses = np.concatenate((self.poses[:k], [pose, pose], self.poses[k:]))
+        self.palm_turns = np.concatenate((self.palm_turns[:k], [turn, turn + delta], self.palm_turns[k:] + delta))
+
+    def watch(self, env, into=None) -> None:
+        """Called by whoever performs the demonstration after each step of ``env``: a demonstrator that watches
+        what it does corrects its plan here (``into.revise``; ``into``: where the plan is performed, by default
+        this motion). This one does not."""
 
     def angles(self, t) -> np.ndarray:
         t = np.atleast_1d(np.asarray(t, float))
@@ -58,5 +88,5 @@ class DemoMotion(SampledMotion):
 
     def at(self, t) -> MotionBlock:
         t = np.atleast_1d(np.asarray(t, float))
-        palm_quat = quat.from_rotvec(self._palm(t))
+        palm_quat = quat.mul(quat.from_rotvec(self._keyframes(t, self.palm_turns)), quat.from_rotvec(self._palm(t)))
         return MotionBlock(t, self.angles(t), palm_quat, np.tile(self.palm_pos, (len(t), 1)))

@@ -6,7 +6,7 @@ watches the robot's fingertips, not their own. Varies timing, aperture, squeeze 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -21,12 +21,17 @@ class PinchDemoConfig:
     preshape_s: tuple = (0.35, 0.5)  # to the open pinch, while the base hovers
     aperture_mm: tuple = (18, 28)  # the open pinch: this much wider than the object
     squeeze_mm: tuple = (4, 6)  # the closed pinch: this much narrower (the object stops the fingers)
+    # the hands whose fingertip servos need a harder squeeze to hold (the operator sees the object slip and presses)
+    robot_squeeze_mm: dict = field(default_factory=lambda: {"shadow": (12, 14)})
     reaction_s: tuple = (0.1, 0.3)  # after the base has stopped
     close_s: tuple = (0.4, 0.7)
     pose_noise_deg: float = 1.5
     palm_deg: float = 1.0  # the palm's wander: a person holds it steady over a small object (3 degrees moves the
     # fingertips 5 mm, half a marble)
     rate_hz: float = 200.0
+
+    def squeeze_for(self, robot: str) -> tuple:
+        return self.robot_squeeze_mm.get(robot, self.squeeze_mm)
 
 
 class PinchDemonstrator:
@@ -41,13 +46,12 @@ class PinchDemonstrator:
         rng = np.random.default_rng(seed)
         robot, finger, width = env.robot.config.name, env.finger, env.pinch_gap_mm()
         open_p = robot_pinch(robot, finger, width + int(rng.integers(c.aperture_mm[0], c.aperture_mm[1] + 1)))[0]
-        closed_p = robot_pinch(robot, finger, max(0, width - int(rng.integers(c.squeeze_mm[0], c.squeeze_mm[1] + 1))))[
-            0
-        ]
+        lo, hi = c.squeeze_for(robot)
+        closed_p = robot_pinch(robot, finger, max(0, width - int(rng.integers(lo, hi + 1))))[0]
         noise = np.clip(rng.normal(0, 1, 6), -2, 2) * c.pose_noise_deg
         start = GESTURES["open"]
-        opened = self._with_others_straight(start, pinch_angles(finger, np.array(open_p) + noise), finger)
-        closed = self._with_others_straight(start, pinch_angles(finger, np.array(closed_p) + noise), finger)
+        opened = pinch_pose(finger, np.array(open_p) + noise, start)
+        closed = pinch_pose(finger, np.array(closed_p) + noise, start)
         sched = env.schedule
         t_pre = rng.uniform(0.05, 0.2)
         t_open = t_pre + rng.uniform(*c.preshape_s)
@@ -58,11 +62,12 @@ class PinchDemonstrator:
         poses = [start, start, opened, opened, closed, closed]
         return DemoMotion(times, poses, rng, c.rate_hz, palm_deg=c.palm_deg)
 
-    @staticmethod
-    def _with_others_straight(start: np.ndarray, pinch: np.ndarray, finger: str) -> np.ndarray:
-        """The pinch's thumb and finger, the open hand's other fingers."""
-        out = start.copy()
-        for k, name in enumerate(JOINTS):
-            if name.startswith(("thumb_", f"{finger}_")):
-                out[k] = pinch[k]
-        return out
+
+def pinch_pose(finger: str, p, start: np.ndarray) -> np.ndarray:
+    """The thumb-``finger`` pinch with parameters ``p`` (6, deg), the other fingers as in ``start``."""
+    pinch = pinch_angles(finger, p)
+    out = start.copy()
+    for k, name in enumerate(JOINTS):
+        if name.startswith(("thumb_", f"{finger}_")):
+            out[k] = pinch[k]
+    return out

@@ -24,20 +24,21 @@ from recorder.retarget import MODES, Retargeter
 
 
 class _GloveReader:
-    """The demonstration as a glove host sees it: noisy pose frames at the glove rate, ``latency_s`` late."""
+    """The demonstration as a glove host sees it: noisy pose frames at the glove rate, ``latency_s`` late, synthesised
+    as time goes (a demonstrator that watches may revise what is still ahead)."""
 
     def __init__(self, motion, seed: int, latency_s: float, noise_deg: float):
-
         self.rate = motion.rate_hz
-        glove = SyntheticGlove(motion, rate_hz=self.rate, seed=seed, pose_noise_deg=noise_deg)
-        n = int(np.ceil(motion.duration * self.rate)) + 1
-        block = glove.next_block(n)
-        self.angles = joint_angles_from_relative(block.pose.astype(float))
-        self.palm = block.pose[:, 0].astype(float)
+        self.glove = SyntheticGlove(motion, rate_hz=self.rate, seed=seed, pose_noise_deg=noise_deg)
+        self.angles, self.palm = np.zeros((0, 20)), np.zeros((0, 4))
         self.latency = latency_s
 
     def __call__(self, t: float):
-        i = int(np.clip(np.floor((t - self.latency) * self.rate + 1e-9), 0, len(self.angles) - 1))
+        i = max(int(np.floor((t - self.latency) * self.rate + 1e-9)), 0)
+        if i >= len(self.angles):
+            block = self.glove.next_block(i + 1 - len(self.angles))
+            self.angles = np.concatenate((self.angles, joint_angles_from_relative(block.pose.astype(float))))
+            self.palm = np.concatenate((self.palm, block.pose[:, 0].astype(float)))
         return self.angles[i], self.palm[i]
 
 
@@ -73,6 +74,7 @@ def run_episode(
         action, rinfo = retargeter(angles, palm)
         errors.append(rinfo["tip_error_mean"])
         obs, reward, terminated, truncated, info = env.step(action)
+        motion.watch(u)
         steps += 1
         if on_step is not None:
             on_step(obs, action, info)

@@ -28,9 +28,15 @@ class SessionMotion(DemoMotion):
         t_from = max(start_s - transition_s, 0.0)
         with self._lock:
             here = self.keyframe_angles([t_from])[0]
+            turn = self._keyframes([t_from], self.palm_turns)[0]
             keep = self.times < t_from
             self.times = np.concatenate((self.times[keep], [t_from], start_s + demo.times))
             self.poses = np.concatenate((self.poses[keep], [here], demo.poses))
+            self.palm_turns = np.concatenate((self.palm_turns[keep], [turn], demo.palm_turns))
+
+    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0)) -> None:
+        with self._lock:
+            super().revise(at_s, duration_s, palm_delta)
 
     def next_block(self, n: int):
         with self._lock:

@@ -112,6 +112,7 @@ class Glove:
         self.emulator: Emulator | None = None
         self.session: SessionMotion | None = None  # the scripted demonstrations the emulated wearer performs
         self._motion: _TakenMotion | None = None
+        self._demo_start = 0.0  # session time of the demonstration being performed
         self.motion = config.motion or motion
         if config.kind == EMULATOR:
             port = self._plug_emulator(config)
@@ -185,7 +186,15 @@ class Glove:
         with self._motion.lock:
             start = max(self._motion.taken_s, hold) + TRANSITION_S + lead_s
             self.session.append(demo, start, TRANSITION_S)
+        self._demo_start = start
         self.emulator.schedule_button(start)
+
+    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0)) -> None:
+        """The demonstration being performed corrects itself (DemoMotion.revise, ``at_s`` in its own time): in the
+        session's time, and never before what the emulator has synthesised already."""
+        with self._motion.lock:
+            at = max(self._demo_start + at_s, self._motion.taken_s + 1.0 / self._motion.rate_hz)
+            self.session.revise(at, duration_s, palm_delta)
 
     # ------------------------------------------------------------ frames in
     def read(self, timeout: float | None = None):

@@ -102,7 +102,11 @@ class LiveView:
         return out
 
     def _next_move(self) -> str | None:
-        """The task's next scripted move and when ("lift in 1.2 s"), from its schedule (HandGrasp)."""
+        """The task's guidance now ("press with your ring"), else its next scripted move and when ("lift in 1.2 s"),
+        from its schedule (HandGrasp)."""
+        said = self.env.guidance()
+        if said:
+            return said
         schedule = getattr(self.env, "schedule", None) or {}
         t = self.env.t
         upcoming = [(at, name) for name, at in schedule.items() if at > t and name not in ("end", "hold")]

@@ -105,6 +105,7 @@ class Recorder:
         glove = cfg.glove_config
         scripted = glove.kind == "emulator" and (glove.motion or "demonstrations") == "demonstrations"
         self.demonstrator = make_demonstrator(cfg.task) if scripted else None
+        self.demo = None  # the demonstration being performed (its plan)
         self.schema = DatasetSchema(self.u, use_videos=bool(cfg.cameras))
         self.store = EpisodeStore(
             cfg.root_path,
@@ -247,8 +248,10 @@ class Recorder:
         self.task_text = self.live.task_text = self.cfg.task_text or self.u.instruction()
         self.live.seed = seed
         self.retarget.reset()
+        self.demo = None
         if self.demonstrator is not None:
-            self.glove.demonstrate(self.demonstrator.plan(self.u, seed=seed))
+            self.demo = self.demonstrator.plan(self.u, seed=seed)
+            self.glove.demonstrate(self.demo)
         if planned is not None:
             start = planned[1] if self.glove.wait_past(planned[1]) else None
             self.glove.buttons.clear()
@@ -369,6 +372,8 @@ class Recorder:
         action, rinfo = self.retarget(at.pose.angles, at.pose.palm)
         latency = self.clock.latency(at)
         nxt, _, terminated, truncated, info = self.env.step(action)
+        if self.demo is not None:
+            self.demo.watch(self.u, into=self.glove)  # a demonstrator that watches corrects what is still ahead
         row = Row(obs, info["applied_action"], at.pose, latency, at.age_s, rinfo["tip_error_mean"], host_tick,
                   device_time, self.task_text)  # fmt: skip
         self.live.recording(index, k, n_max, stats)

@@ -140,9 +140,9 @@ def trivial(task: str, robot: str, episodes: int) -> dict:
         env.reset(seed=seed)
         goal = GOAL[task](u)
         other = next(s for s in range(10_000 + seed, 20_000) if env.reset(seed=s) and GOAL[task](u) != goal)
-        actions = []
-        run_episode(env, r, other, on_step=lambda o, a, i: actions.append(a))
-        wrong += _play(env, seed, lambda k: actions[min(k, len(actions) - 1)])
+        actions: list = []
+        run_episode(env, r, other, on_step=lambda o, a, i, out=actions: out.append(a))
+        wrong += _play(env, seed, lambda k, acts=actions: acts[min(k, len(acts) - 1)])
     out["wrong-instruction replay"] = wrong
     env.close()
     return {name: {"successes": n, "episodes": episodes, "rate": round(n / episodes, 3)} for name, n in out.items()}
@@ -185,8 +185,8 @@ def main(argv=None) -> None:
                 }
                 print(f"success {task}/{robot}/{via}: {s['successes']}/{s['episodes']}", flush=True)
             results["trivial"][f"{task}/{robot}"] = t = trivial(task, robot, args.episodes)
-            print(f"trivial {task}/{robot}: " + ", ".join(f"{k} {v['successes']}/{v['episodes']}" for k, v in t.items()),
-                  flush=True)  # fmt: skip
+            rates = ", ".join(f"{k} {v['successes']}/{v['episodes']}" for k, v in t.items())
+            print(f"trivial {task}/{robot}: {rates}", flush=True)
     write_results("envs", results)
 
 

@@ -9,7 +9,8 @@ For each task and robot, with the gloverec commands a user runs (each in a child
   -> train BC (configs/train/bc.yaml, --steps; goal <= 10 min on this CPU)
   -> eval 50 episodes with seeds 100000.. (never training seeds) (goals: HandPose >= 95 %, HandGrasp >= 80 %)
 and, on the first task/robot, LeRobot's ACT through `lerobot-train` on the same hub dataset (a short run of
-a small ACT), evaluated by `gloverec eval`. Writes bench/results/learning.json and the loss curves as
+a small ACT), evaluated by `gloverec eval`. Writes bench/results/learning.json (rows of other task/robot pairs
+already there are kept, each row with the time it was measured) and the loss curves as
 bench/results/learning_loss_<task>_<robot>.png.
 """
 
@@ -31,7 +32,7 @@ from _common import RESULTS, write_results  # noqa: E402
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
 
-GOALS = {"pose": 0.95, "grasp": 0.80}
+GOALS = {"pose": 0.95, "grasp": 0.80, "pinch": 0.80, "keys": 0.80, "turn": 0.80}
 TRAIN_GOAL_S = 600
 EVAL_SEED = 100_000
 ACT_FLAGS = [
@@ -231,6 +232,8 @@ def main() -> None:
             print(f"[ACT through lerobot-train on {pairs[0][0]} / {pairs[0][1]}]", flush=True)
             act_result = act(*pairs[0], args.act_steps, args, tmp, hub)
             print(f"  ACT: {act_result.get('eval', act_result)}", flush=True)
+    runs = merged_runs(runs, act_result)
+    act_result = act_result or previous().get("act")
     write_results(
         "learning",
         {
@@ -244,6 +247,24 @@ def main() -> None:
             "wall_s": round(time.perf_counter() - t0, 1),
         },
     )
+
+
+def previous() -> dict:
+    path = RESULTS / "learning.json"
+    return json.loads(path.read_text()) if path.exists() else {}
+
+
+def merged_runs(runs: list[dict], act_result) -> list[dict]:
+    """This run's rows, after the rows of bench/results/learning.json for the (task, robot) pairs it did not
+    measure: `--tasks pinch` adds a row and keeps the others (each row says when it was measured)."""
+    when = time.strftime("%Y-%m-%dT%H:%M:%S%z")
+    for r in runs:
+        r["when"] = when
+    done = {(r["task"], r["robot"]) for r in runs}
+    kept = [r for r in previous().get("runs", []) if (r["task"], r["robot"]) not in done]
+    for r in kept:
+        r.setdefault("when", previous().get("meta", {}).get("when"))
+    return kept + runs
 
 
 if __name__ == "__main__":

@@ -1,5 +1,6 @@
-"""Tasks by name, from the task registry (envs/tasks/registry.py): ``pose`` (HandPose), ``grasp`` (HandGrasp)
-and ``pinch`` (HandPinch), ``keys`` (HandKeys) and ``turn`` (HandTurn) built in, more from plugins; ``make_task(name, robot)`` builds one."""
+"""Tasks by name, from the task registry (envs/tasks/registry.py): ``pose`` (HandPose), ``grasp`` (HandGrasp),
+``pinch`` (HandPinch), ``keys`` (HandKeys) and ``turn`` (HandTurn) built in, more from plugins;
+``make_task(name, robot)`` builds one."""
 
 from __future__ import annotations
 

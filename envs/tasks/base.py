@@ -4,8 +4,8 @@ stepped at a fixed control rate, observed the way LeRobot datasets store it.
 Scene: a floor (the table top, z = 0), lights, cameras, and the hand: its root body has a free joint welded
 (soft, stiff) to a mocap body, the "base target", with gravity compensation on every hand body. The base
 target carries the glove palm frame; the task scripts its position and nominal orientation, and the action
-rotates it (the glove's palm orientation), about the palm frame's origin or a task's ``pivot``. A weld rather than a kinematic parent gives the hand real
-velocities, so friction carries a held object along.
+rotates it (the glove's palm orientation), about the palm frame's origin or a task's ``pivot``. A weld rather
+than a kinematic parent gives the hand real velocities, so friction carries a held object along.
 
 Action (float32): the actuators' position targets (ctrl ranges), then, with ``base_rotation``, the palm
 rotation as a rotation vector (rad, palm axes, relative to the task's nominal orientation, norm clipped to
@@ -85,8 +85,9 @@ class HandEnv(gym.Env):
     """Base of the tasks; subclasses define ``config_class``, ``_build_task(spec)``, ``_reset_task()``,
     ``_base_target(t)``, ``_environment_state()`` (+ names), ``_evaluate()`` and ``instruction()``, and register
     with ``@register_task(name, ...)`` (envs/tasks/registry.py), which sets ``task_name``. Optional view hooks:
-    ``goal_qpos(qpos, goal)`` (a target the live view draws as a ghost) and ``schedule`` ({move: start time}: the
-    view's "lift in 1.2 s") and ``guidance()`` (a line for the operator now: "press with your ring", "turn 40° more")."""
+    ``goal_qpos(qpos, goal)`` (a target the live view draws as a ghost), ``schedule`` ({move: start time}: the
+    view's "lift in 1.2 s") and ``guidance()`` (a line for the operator now: "press with your ring", "turn 40°
+    left")."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
     config_class = TaskConfig

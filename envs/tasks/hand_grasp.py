@@ -24,6 +24,7 @@ from envs.tasks.base import HandEnv, TaskConfig
 from envs.tasks.registry import register_task
 from recorder import quat
 from recorder.config import NonNegative, Positive
+from recorder.hand.motion import min_jerk
 
 SHAPES = ("box", "cylinder", "sphere")
 Range = tuple[float, float]
@@ -32,11 +33,6 @@ _GEOM = {
     "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER,
     "sphere": mujoco.mjtGeom.mjGEOM_SPHERE,
 }
-
-
-def _min_jerk(s):
-    s = np.clip(s, 0.0, 1.0)
-    return s * s * s * (10.0 + s * (-15.0 + 6.0 * s))
 
 
 @dataclass
@@ -192,11 +188,11 @@ class HandGraspEnv(HandEnv):
     def _base_target(self, t: float):
         s = self.schedule
         pos = self._grasp_pos.copy()
-        pos[2] += self.config.hover_m * (1.0 - _min_jerk((t - s["descend"]) / self.config.descend_s))
-        pos[2] += self.config.lift_m * _min_jerk((t - s["lift"]) / self.config.lift_s)
+        pos[2] += self.config.hover_m * (1.0 - min_jerk((t - s["descend"]) / self.config.descend_s))
+        pos[2] += self.config.lift_m * min_jerk((t - s["lift"]) / self.config.lift_s)
         q = quat.IDENTITY.copy()
         if self._tilt:
-            angle = self._tilt * _min_jerk((t - s["tilt"]) / self.config.tilt_s)
+            angle = self._tilt * min_jerk((t - s["tilt"]) / self.config.tilt_s)
             q = quat.from_axis_angle(self._tilt_axis, angle)
         return pos, q
 

@@ -167,10 +167,11 @@ class HandKeysEnv(HandEnv):
             body.add_joint(name=f"key_{f}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 1, 0],
                            range=[0.0, 1.5 * cfg.travel_m / length], limited=True, stiffness=cfg.stiffness[0],
                            springref=-0.2, damping=0.002, armature=1e-5)  # fmt: skip
+            # contype 2, conaffinity 1: keys touch the hand, not each other
             body.add_geom(name=f"key_{f}", type=mujoco.mjtGeom.mjGEOM_BOX,
                           size=[arm / 2, width / 2, KEY_THICKNESS_M / 2], pos=[arm / 2, 0, 0], rgba=UNLIT,
                           mass=0.004, friction=[1.0, 0.01, 0.001], solref=[0.004, 1.0],
-                          contype=2, conaffinity=1)  # fmt: skip  (keys touch the hand, not each other)
+                          contype=2, conaffinity=1)  # fmt: skip
             self._key_under[f] = length  # from the hinge to under the fingertip
         # the key bed: looks only
         xs = [self._palm_pos[0] + k.spot[0] for k in self.layout.values()]
@@ -185,7 +186,8 @@ class HandKeysEnv(HandEnv):
     def _init_indices(self) -> None:
         super()._init_indices()
         m = self.model
-        self._keys = {f: (m.joint(f"key_{f}").id, m.geom(f"key_{f}").id, m.body(f"key_{f}").id) for f in self.key_fingers}
+        ids = {f: (m.joint(f"key_{f}").id, m.geom(f"key_{f}").id, m.body(f"key_{f}").id) for f in self.key_fingers}
+        self._keys = ids
         self._key_pos0 = {f: m.body_pos[b].copy() for f, (_, _, b) in self._keys.items()}
         tips = {f: int(m.site_bodyid[m.site(n).id]) for f, n in zip(self.robot.fingers, self.robot.tip_sites)}
         chains = {f: self._chain(b, set(tips.values())) for f, b in tips.items()}
@@ -213,9 +215,9 @@ class HandKeysEnv(HandEnv):
 
     # ------------------------------------------------------------ episode
     def _reset_task(self) -> None:
-        m, d, rng, cfg = self.model, self.data, self.np_random, self.config
+        m, rng, cfg = self.model, self.np_random, self.config
         offset = rng.uniform(-cfg.placement_m, cfg.placement_m, 2)
-        for f, (jnt, geom, body) in self._keys.items():
+        for f, (jnt, _, body) in self._keys.items():
             m.body_pos[body] = self._key_pos0[f] + [offset[0], offset[1], 0.0]
             m.jnt_stiffness[jnt] = rng.uniform(*cfg.stiffness)
         n = int(rng.integers(cfg.presses[0], cfg.presses[1] + 1))

@@ -31,11 +31,11 @@ import numpy as np
 
 from envs.tasks import postures
 from envs.tasks.base import HandEnv, TaskConfig
-from envs.tasks.hand_grasp import _min_jerk
 from envs.tasks.registry import register_task
 from recorder import quat
 from recorder.config import NonNegative, Positive
 from recorder.hand.kinematics import JOINTS
+from recorder.hand.motion import min_jerk
 
 SHAPES = ("marble", "disc", "cube")
 FINGERS = ("index", "middle", "ring")
@@ -252,8 +252,8 @@ class HandPinchEnv(HandEnv):
     def _base_target(self, t: float):
         s = self.schedule
         pos = self._grasp_pos.copy()
-        pos[2] += self.config.hover_m * (1.0 - _min_jerk((t - s["descend"]) / self.config.descend_s))
-        pos[2] += self.config.lift_m * _min_jerk((t - s["lift"]) / self.config.lift_s)
+        pos[2] += self.config.hover_m * (1.0 - min_jerk((t - s["descend"]) / self.config.descend_s))
+        pos[2] += self.config.lift_m * min_jerk((t - s["lift"]) / self.config.lift_s)
         return pos, quat.IDENTITY.copy()
 
     def object_pose(self) -> np.ndarray:

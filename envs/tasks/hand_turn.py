@@ -26,11 +26,11 @@ import mujoco
 import numpy as np
 
 from envs.tasks.base import HandEnv, TaskConfig
-from envs.tasks.hand_grasp import _min_jerk
 from envs.tasks.hand_pinch import robot_pinch
 from envs.tasks.registry import register_task
 from recorder import quat
 from recorder.config import NonNegative, Positive
+from recorder.hand.motion import min_jerk
 
 Range = tuple[float, float]
 GRIP_FINGER = "middle"  # opposes the thumb on the knob
@@ -162,7 +162,7 @@ class HandTurnEnv(HandEnv):
 
     def _base_target(self, t: float):
         pos = self._grip_pos.copy()
-        pos[2] += self.config.hover_m * (1.0 - _min_jerk((t - self.schedule["descend"]) / self.config.descend_s))
+        pos[2] += self.config.hover_m * (1.0 - min_jerk((t - self.schedule["descend"]) / self.config.descend_s))
         return pos, quat.IDENTITY.copy()
 
     def knob_angle(self) -> float:

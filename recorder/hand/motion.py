@@ -60,7 +60,8 @@ class Sines:
 
 
 def min_jerk(s) -> np.ndarray:
-    """Minimum-jerk position profile 10 s^3 - 15 s^4 + 6 s^5 on s in [0, 1]."""
+    """Minimum-jerk position profile 10 s^3 - 15 s^4 + 6 s^5 on s in [0, 1] (0 before, 1 after)."""
+    s = np.clip(s, 0.0, 1.0)
     return s * s * s * (10.0 + s * (-15.0 + 6.0 * s))
 
 

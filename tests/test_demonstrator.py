@@ -4,9 +4,11 @@ import numpy as np
 import pytest
 
 import envs
+from recorder import quat
 from recorder.demonstrator import DemoMotion, make_demonstrator
 from recorder.demonstrator.rollout import run_episode
 from recorder.emulator.glove import SyntheticGlove
+from recorder.hand.gestures import GESTURES
 from recorder.retarget import Retargeter
 
 
@@ -64,3 +66,24 @@ def test_synthetic_glove_takes_a_motion_object():
         SyntheticGlove(DemoMotion([0, 1], [ref.angles[0]] * 2, np.random.default_rng(0), 100.0), rate_hz=200.0)
     with pytest.raises(ValueError, match="unknown task 'juggle'; valid tasks: grasp, keys, pinch, pose, turn"):
         make_demonstrator("juggle")
+
+
+def test_a_correction_goes_into_a_hold_and_keeps_what_was_performed():
+    """DemoMotion.revise, what a watching demonstrator (HandTurn's) does: a turn of the palm inserted in a hold
+    shifts the rest of the plan, leaves the path before it as it was, and is refused inside a move."""
+    open_, fist = GESTURES["open"], GESTURES["fist"]
+    times, poses = [0.0, 0.5, 1.0, 2.0, 2.5], [open_, fist, fist, fist, open_]  # a hold from 0.5 to 2.0 s
+
+    def motion():
+        return DemoMotion(times, poses, np.random.default_rng(3), 100.0, palm_deg=0.0)
+
+    plan, before = motion(), motion().at(np.arange(0, 150) / 100.0)
+    with pytest.raises(ValueError, match="inside a move"):
+        plan.revise(0.3, 0.4, (0, 0, 0.5))
+    assert plan.revise(1.5, 0.4, (0.0, 0.0, 0.5))
+    after = plan.at(np.arange(0, 150) / 100.0)
+    np.testing.assert_array_equal(after.angles, before.angles)  # up to the correction: unchanged
+    np.testing.assert_array_equal(after.palm_quat, before.palm_quat)
+    assert plan.duration == pytest.approx(2.9)  # the release 0.4 s later
+    turned = quat.mul(quat.conj(motion().at([2.9]).palm_quat[0]), plan.at([3.3]).palm_quat[0])
+    assert np.degrees(2 * np.arccos(min(abs(turned[0]), 1.0))) == pytest.approx(np.degrees(0.5), abs=0.1)

@@ -115,6 +115,8 @@ def key_layout(robot: str, travel_m: float) -> dict[str, Key]:
 @dataclass
 class HandKeysConfig(TaskConfig):
     episode_s: Annotated[float, Positive] = 7.0
+    base_rotation: bool = False  # the base is fixed over the keys: a palm that turns would slide the fingers onto
+    # the neighbouring keys (3 degrees of heading move a fingertip 5 mm, a third of a key)
     presses: tuple[Annotated[int, Positive], Annotated[int, Positive]] = (3, 5)  # sequence length, uniform
     travel_m: Annotated[float, Positive] = 0.006  # under the fingertip
     threshold: Annotated[float, Positive] = 0.6  # pressed past this fraction of the travel

@@ -59,11 +59,11 @@ class DemoMotion(SampledMotion):
         """The keyframe path alone (no wander or tremor), (n, 20) rad."""
         return self._keyframes(t, self.poses)
 
-    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0)) -> None:
+    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0)) -> bool:
         """A correction while demonstrating: from ``at_s`` on, spend ``duration_s`` turning the palm by
         ``palm_delta`` (a rotation vector, palm axes; zeros: a pause), then go on with the rest of the plan that much
         later (and turned by that much). ``at_s`` must fall in a hold (between two equal keyframes): the path
-        before it is unchanged, so samples already taken stay valid."""
+        before it is unchanged, so samples already taken stay valid. Returns True (done)."""
         at_s = float(at_s)
         k = int(np.searchsorted(self.times, at_s, side="right"))
         if 0 < k < len(self.times) and not (
@@ -75,6 +75,7 @@ class DemoMotion(SampledMotion):
         self.times = np.concatenate((self.times[:k], [at_s, at_s + duration_s], self.times[k:] + duration_s))
         self.poses = np.concatenate((self.poses[:k], [pose, pose], self.poses[k:]))
         self.palm_turns = np.concatenate((self.palm_turns[:k], [turn, turn + delta], self.palm_turns[k:] + delta))
+        return True
 
     def watch(self, env, into=None) -> None:
         """Called by whoever performs the demonstration after each step of ``env``: a demonstrator that watches

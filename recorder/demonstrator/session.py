@@ -34,9 +34,9 @@ class SessionMotion(DemoMotion):
             self.poses = np.concatenate((self.poses[keep], [here], demo.poses))
             self.palm_turns = np.concatenate((self.palm_turns[keep], [turn], demo.palm_turns))
 
-    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0)) -> None:
+    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0)) -> bool:
         with self._lock:
-            super().revise(at_s, duration_s, palm_delta)
+            return super().revise(at_s, duration_s, palm_delta)
 
     def next_block(self, n: int):
         with self._lock:

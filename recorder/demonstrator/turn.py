@@ -127,7 +127,8 @@ class TurnMotion(DemoMotion):
         limit = np.radians(self.max_turn_deg)  # no further than the wearer's forearm turns
         now = float(self._keyframes([at_s], self.palm_turns)[0, 2])
         turn = float(np.clip(now + turn, -limit, limit) - now)
-        into.revise(at_s, duration_s, (0.0, 0.0, turn))
+        if not into.revise(at_s, duration_s, (0.0, 0.0, turn)):
+            return  # too late: what is performed is past that hold
         if into is not self:
             self.revise(at_s, duration_s, (0.0, 0.0, turn))  # this plan's own copy, for its times
         self.let_go_s += duration_s

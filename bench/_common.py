@@ -34,6 +34,28 @@ def write_results(name: str, results: dict) -> Path:
     return path
 
 
+def merged_with_previous(name: str, results: dict) -> dict:
+    """``results`` (sections of rows keyed "task/robot..."), after the rows of bench/results/<name>.json that this
+    run did not measure: a run on a subset updates its rows and keeps the others. Section "measured" says when
+    each row was measured."""
+    path = RESULTS / f"{name}.json"
+    old = json.loads(path.read_text()) if path.exists() else {}
+    then, now = old.get("meta", {}).get("when"), time.strftime("%Y-%m-%dT%H:%M:%S%z")
+    measured = dict(old.get("measured", {}))
+    out = {}
+    for section, rows in results.items():
+        if not isinstance(rows, dict):
+            out[section] = rows
+            continue
+        kept = {k: v for k, v in old.get(section, {}).items() if k not in rows}
+        for k in kept:
+            measured.setdefault(f"{section}:{k}", then)
+        for k in rows:
+            measured[f"{section}:{k}"] = now
+        out[section] = {**kept, **rows}
+    return {**out, "measured": dict(sorted(measured.items()))}
+
+
 def median_rate(fn, items: int, runs: int = 5) -> dict:
     """Run ``fn`` ``runs`` times; items per second as median, min and max."""
     rates = []

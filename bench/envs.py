@@ -17,7 +17,8 @@ success rates.
   another sequence; turn: the opposite direction; grasp: another shape; pose: another gesture). Goal <= 5 %.
 All costs are medians over ``--runs`` runs.
 
-    --robots glovehand,shadow,leap --tasks pinch,keys,turn   a subset
+    --robots glovehand,shadow,leap --tasks pinch,keys,turn   a subset (the rows it does not measure are kept from
+                                                             bench/results/envs.json; "measured" says when each was)
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
-from _common import write_results  # noqa: E402
+from _common import merged_with_previous, write_results  # noqa: E402
 
 import envs  # noqa: E402
 from recorder.demonstrator.rollout import run_episode, success_rate  # noqa: E402
@@ -187,7 +188,7 @@ def main(argv=None) -> None:
             results["trivial"][f"{task}/{robot}"] = t = trivial(task, robot, args.episodes)
             rates = ", ".join(f"{k} {v['successes']}/{v['episodes']}" for k, v in t.items())
             print(f"trivial {task}/{robot}: {rates}", flush=True)
-    write_results("envs", results)
+    write_results("envs", merged_with_previous("envs", results))
 
 
 if __name__ == "__main__":

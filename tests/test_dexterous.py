@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 import envs
-from conftest import gloverec
+from conftest import cli
 from recorder.demonstrator.rollout import run_episode
 from recorder.hand.gestures import GESTURES
 from recorder.retarget.retargeter import Retargeter
@@ -80,8 +80,7 @@ def test_demonstrations_through_the_synthetic_glove(task):
 @pytest.mark.parametrize("task", TASKS)
 def test_gloverec_records_the_task_with_the_emulated_glove(task, tmp_path):
     root = tmp_path / "ds"
-    r = gloverec("record", "--task", task, "--episodes", "2", "--root", str(root), "--repo-id", f"test/{task}",
-                 "--json", timeout=300)  # fmt: skip
+    r = cli("record", "--task", task, "--episodes", "2", "--root", str(root), "--repo-id", f"test/{task}", "--json")
     assert r.returncode == 0, r.stderr
     out = json.loads(r.stdout.strip().splitlines()[-1])
     info = json.loads((root / "meta" / "info.json").read_text())

@@ -206,3 +206,24 @@ def test_the_plugins_warn_once_when_lerobots_spoken_prompts_will_fail(monkeypatc
     assert speech.warn_if_prompts_will_fail("again") is None  # once per process
     monkeypatch.setattr(speech, "_warned", False)
     assert speech.warn_if_prompts_will_fail("x", ["lerobot-record", "--play_sounds=false"]) is None
+
+
+@pytest.mark.parametrize("task", ["pinch", "keys", "turn"])
+def test_the_sim_runs_each_dexterous_task_from_the_glove_teleoperator(task):
+    """`--robot.type=gloverec_sim --robot.task=keys` with `--teleop.type=gloverec_glove`: the task's own state
+    names in the observation, the actions it takes (HandKeys' base does not turn: no base.*), and the
+    teleoperator's action accepted as it is."""
+    sim = GloverecSim(GloverecSimConfig(robot="glovehand", task=task, seed=1))
+    teleop = GloverecGlove(GloverecGloveConfig(port="emulator", robot="glovehand"))
+    names = envs.make(task, "glovehand").unwrapped
+    assert list(sim.action_features) == list(names.action_names)
+    assert ("base.rz" in sim.action_features) == (task != "keys")
+    sim.connect()
+    try:
+        obs = sim.get_observation()
+        assert set(names.environment_state_names) <= set(obs)
+        action = {name: 0.0 for name in teleop.action_features}
+        applied = sim.send_action(action)
+        assert list(applied) == list(sim.action_features)
+    finally:
+        sim.disconnect()

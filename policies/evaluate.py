@@ -346,6 +346,7 @@ def evaluate(
                 "return": round(ret, 4),
                 "length": steps,
                 **{key: info[key] for key in ("goal", "object") if key in info},
+                **_outcome(info),
             }
         )
         if filming:
@@ -367,6 +368,13 @@ def evaluate(
         "runs": runs,
         "wall_s": round(time.perf_counter() - t0, 2),
     }
+
+
+def _outcome(info: dict) -> dict:
+    """What a task says about how its episode ended (pinch's finger, keys' sequence and failure, turn's angle and
+    target): its info's plain values, beside the success flag."""
+    skip = {"is_success", "t", "applied_action", "goal", "object"}
+    return {k: v for k, v in info.items() if k not in skip and isinstance(v, (str, int, float, bool, type(None)))}
 
 
 def _write_video(path: Path, frames: list, fps: float) -> Path:

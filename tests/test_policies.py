@@ -208,6 +208,16 @@ def test_metric_succeeds_for_the_demonstrator_and_fails_for_random_actions():
     assert all(n < 150 for n in demo["episode_lengths"])  # HandPose ends on success
 
 
+def test_eval_says_how_each_episode_of_a_dexterous_task_ended():
+    from policies.evaluate import DemonstratorAgent, RandomAgent, evaluate, make_env
+
+    env = make_env("keys", "glovehand")
+    run = evaluate(RandomAgent(), env, episodes=1, seed=100_000)["runs"][0]
+    assert not run["success"] and run["failed"].endswith("key pressed") and run["sequence"].count("-") >= 2
+    run = evaluate(DemonstratorAgent("turn", "glovehand"), make_env("turn", "glovehand"), 1, 100_000)["runs"][0]
+    assert run["success"] and abs(run["angle_deg"] - run["target_deg"]) <= 8
+
+
 def test_eval_json_of_an_untrained_policy_reports_failure(dataset, tmp_path):
     policy, pre, post, _ = _bc_policy(dataset)
     ckpt = tmp_path / "untrained"

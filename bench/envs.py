@@ -69,7 +69,7 @@ def _median(fn, n: int, runs: int) -> dict:
 def step_cost(task: str, robot: str, runs: int) -> dict:
     env = envs.make(task, robot, terminate_on_success=False)  # a whole episode, after success too
     actions = []
-    run_episode(env, Retargeter(robot), seed=0, on_step=lambda o, a, i: actions.append(a))
+    run_episode(env, Retargeter.for_env(env), seed=0, on_step=lambda o, a, i: actions.append(a))
 
     def replay():
         env.reset(seed=0)
@@ -129,7 +129,7 @@ def trivial(task: str, robot: str, episodes: int) -> dict:
     """Successes of the trivial policies over seeds 0..episodes-1."""
     env = envs.make(task, robot)
     u = env.unwrapped
-    r = Retargeter(robot, base_rotation=u.config.base_rotation)
+    r = Retargeter.for_env(env)
     fixed = {
         "zero": np.zeros(env.action_space.shape, np.float32),
         "open hand": r(GESTURES["open"])[0],

@@ -52,7 +52,7 @@ def _run(env, seed, policy) -> dict:
 @pytest.mark.parametrize("name", ["zero", "open hand", "fist"])
 def test_trivial_policies_fail(task, name):
     env = envs.make(task, "glovehand")
-    rt = Retargeter("glovehand", "joint")
+    rt = Retargeter.for_env(env)
     action = {
         "zero": np.zeros(env.action_space.shape, np.float32),
         "open hand": rt(GESTURES["open"])[0],
@@ -65,7 +65,7 @@ def test_trivial_policies_fail(task, name):
 @pytest.mark.parametrize("task", ["keys", "turn"])
 def test_the_demonstrator_solves_the_task_on_every_robot(task, robot):
     env = envs.make(task, robot)
-    r = Retargeter(robot)
+    r = Retargeter.for_env(env)
     results = [run_episode(env, r, seed) for seed in (0, 1, 2)]
     assert sum(x["success"] for x in results) >= 2, results  # it succeeds on 94-98 % of seeds (docs/envs.md)
 
@@ -73,7 +73,7 @@ def test_the_demonstrator_solves_the_task_on_every_robot(task, robot):
 @pytest.mark.parametrize("task", ["keys", "turn"])
 def test_demonstrations_through_the_synthetic_glove(task):
     env = envs.make(task, "glovehand")
-    assert run_episode(env, Retargeter("glovehand"), 3, via="glove", latency_s=0.02, noise_deg=0.5)["success"]
+    assert run_episode(env, Retargeter.for_env(env), 3, via="glove", latency_s=0.02, noise_deg=0.5)["success"]
 
 
 @pytest.mark.process

@@ -26,7 +26,8 @@ def test_a_key_under_each_finger_that_can_press_one(robot, fingers):
 
 def _hold(env, action, seconds, ramp_s=0.0):
     """Hold ``action`` for ``seconds``, reaching it in ``ramp_s`` from the last action, as a hand moves."""
-    info, start = {}, np.concatenate([env.data.ctrl, np.zeros(3)])  # the targets now, no palm turn
+    info, start = {}, np.zeros(env.action_space.shape)
+    start[: env.model.nu] = env.data.ctrl  # the targets now (HandKeys' action has no palm turn)
     steps, ramp = int(round(seconds * env.config.control_hz)), max(int(round(ramp_s * env.config.control_hz)), 1)
     for k in range(steps):
         obs, _, terminated, _, info = env.step(start + (action - start) * min((k + 1) / ramp, 1.0))
@@ -35,14 +36,14 @@ def _hold(env, action, seconds, ramp_s=0.0):
     return obs, info
 
 
-def _press(robot, finger):
-    return Retargeter(robot, "joint")(press_angles(robot, finger, 0.014))[0]
+def _press(env, finger):
+    return Retargeter.for_env(env)(press_angles(env.robot.config.name, finger, 0.014))[0]
 
 
 @pytest.mark.parametrize("robot", ["glovehand", "leap"])
 def test_the_lit_key_pressed_by_its_finger_counts_and_another_key_fails(robot):
     env = HandKeysEnv(robot)
-    rest = Retargeter(robot, "joint")(rest_angles())[0]
+    rest = Retargeter.for_env(env)(rest_angles())[0]
     env.reset(seed=3)
     obs, _ = _hold(env, rest, env.config.first_key_s + 0.1, ramp_s=0.5)
     first = env.lit()
@@ -52,7 +53,7 @@ def test_the_lit_key_pressed_by_its_finger_counts_and_another_key_fails(robot):
     assert np.allclose(env.model.geom_rgba[key_geom], LIT)  # the cameras see which key
     assert env.guidance() == f"press with your {first}: key 1 of {len(env.sequence)}"  # the live view's line
 
-    obs, info = _hold(env, _press(robot, first), 0.5)  # the lit key, by its own finger
+    obs, info = _hold(env, _press(env, first), 0.5)  # the lit key, by its own finger
     state = dict(zip(env.environment_state_names, obs["observation.environment_state"]))
     assert env.done == 1 and info["failed"] is None, info
     assert state[f"keys.down.{first}"] >= env.config.threshold
@@ -60,23 +61,23 @@ def test_the_lit_key_pressed_by_its_finger_counts_and_another_key_fails(robot):
 
     _hold(env, rest, 0.4)
     wrong = next(f for f in env.key_fingers if f != env.lit())
-    _, info = _hold(env, _press(robot, wrong), 0.5)
+    _, info = _hold(env, _press(env, wrong), 0.5)
     assert info["failed"] == f"{wrong} key pressed" and not info["is_success"]
 
 
 def test_pressing_every_lit_key_in_order_succeeds_and_a_key_pressed_too_early_fails():
     env = HandKeysEnv("glovehand")
-    rest = Retargeter("glovehand", "joint")(rest_angles())[0]
+    rest = Retargeter.for_env(env)(rest_angles())[0]
     env.reset(seed=5)
     _hold(env, rest, env.config.first_key_s + 0.1, ramp_s=0.5)
     for k, finger in enumerate(env.sequence):
-        _, info = _hold(env, _press("glovehand", finger), 0.45)
+        _, info = _hold(env, _press(env, finger), 0.45)
         assert env.done == k + 1, info
         _, info = _hold(env, rest, 0.4)
     assert info["is_success"] and info["pressed"] == len(env.sequence)
 
     env.reset(seed=5)
-    _, info = _hold(env, _press("glovehand", env.sequence[0]), 0.5)  # the right key, before it lights
+    _, info = _hold(env, _press(env, env.sequence[0]), 0.5)  # the right key, before it lights
     assert info["failed"] and not info["is_success"]
 
 

@@ -94,7 +94,7 @@ def success_rate(
 ) -> dict:
 
     env = envs.make(task, robot, **env_kwargs)
-    r = Retargeter(robot, mode, base_rotation=env.unwrapped.config.base_rotation)
+    r = Retargeter.for_env(env, mode)
     t0 = time.perf_counter()
     runs = [run_episode(env, r, seed0 + k, via) for k in range(episodes)]
     env.close()

@@ -41,6 +41,13 @@ class Retargeter:
     (robot fingertip vs scaled human fingertip, palm frame), tip_error_mean, ik_iterations, joint_targets (nu,),
     qpos (the robot's joint positions at the targets)."""
 
+    @classmethod
+    def for_env(cls, env, mode: str = "joint", **kw) -> Retargeter:
+        """The retargeter whose actions ``env`` (a gloverec task) takes: its robot, with the palm rotation where
+        the task turns its base (HandKeys' does not)."""
+        u = env.unwrapped
+        return cls(u.robot, mode, base_rotation=u.config.base_rotation, **kw)
+
     def __init__(
         self,
         robot="glovehand",

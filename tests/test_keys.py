@@ -91,3 +91,16 @@ def test_a_key_struck_by_a_neighbouring_finger_does_not_count():
     mujoco.mj_forward(env.model, env.data)
     success, terminated, _ = env._evaluate()
     assert not success and terminated and env.failed == f"{lit} key pressed by another finger"
+
+
+def test_the_live_view_s_copy_of_the_scene_lights_the_lit_key():
+    from recorder.view.scene import Stage, frame_of
+
+    env = HandKeysEnv("glovehand")
+    rest = Retargeter.for_env(env)(rest_angles())[0]
+    env.reset(seed=3)
+    _hold(env, rest, env.config.first_key_s + 0.1, ramp_s=0.5)
+    stage = Stage("keys", "glovehand")
+    stage.apply(frame_of(env, status={"seed": 3}))
+    for f in env.key_fingers:
+        assert np.allclose(stage.model.geom_rgba[stage.env._keys[f][1]], LIT if f == env.lit() else UNLIT)

@@ -94,6 +94,7 @@ class HandEnv(gym.Env):
     task_name = "base"
     workspace = (0.0, 0.0, 0.25)  # where the cameras look
     pivot = None  # the point (palm frame, m) the action's palm rotation turns the hand about; None: the palm origin
+    view_distance_m = 0.75  # how far the live views' camera stands back (a small scene wants it closer)
 
     def __init__(self, robot: str = "glovehand", render_mode: str | None = None, config=None, **overrides):
         self.config = config if config is not None else self.config_class.load(self.task_name, **overrides)
@@ -343,6 +344,10 @@ class HandEnv(gym.Env):
     def guidance(self) -> str | None:
         """What the operator should do now, in a few words, for the live view (None: its schedule's next move)."""
         return None
+
+    def show_state(self, environment_state: np.ndarray) -> None:
+        """Show in this scene's looks what ``environment_state`` (another copy's) says that they change with: the
+        live views keep a copy of the task that follows the recording's frames (default: nothing to show)."""
 
     def instruction(self) -> str:
         """The episode's instruction, as a person reads it and a dataset's ``task`` stores it (after ``reset``)."""

@@ -134,6 +134,7 @@ class HandKeysConfig(TaskConfig):
 )
 class HandKeysEnv(HandEnv):
     config_class = HandKeysConfig
+    view_distance_m = 0.5  # keys, knobs and marbles are small
     workspace = (0.02, 0.0, 0.08)
     environment_state_names = (
         *(f"keys.lit.{f}" for f in FINGERS),
@@ -237,6 +238,12 @@ class HandKeysEnv(HandEnv):
         lit = self.lit()
         for f, (_, geom, _) in self._keys.items():
             self.model.geom_rgba[geom] = LIT if f == lit else UNLIT
+
+    def show_state(self, environment_state: np.ndarray) -> None:
+        lit = environment_state[: len(FINGERS)]
+        for k, f in enumerate(FINGERS):
+            if f in self._keys:
+                self.model.geom_rgba[self._keys[f][1]] = LIT if lit[k] > 0.5 else UNLIT
 
     def lit(self) -> str | None:
         """The finger whose key is lit now (None before the first lights and after the last press)."""

@@ -136,6 +136,7 @@ class HandPinchConfig(TaskConfig):
 @register_task("pinch", env_id="gloverec/HandPinch-v0", demonstrator="recorder.demonstrator.pinch:PinchDemonstrator")
 class HandPinchEnv(HandEnv):
     config_class = HandPinchConfig
+    view_distance_m = 0.5  # keys, knobs and marbles are small
     workspace = (0.0, 0.0, 0.08)
     environment_state_names = (
         *(f"pinch.object.{k}" for k in ("x", "y", "z", "qw", "qx", "qy", "qz", "hx", "hy", "hz")),

@@ -68,6 +68,7 @@ class HandTurnConfig(TaskConfig):
 )
 class HandTurnEnv(HandEnv):
     config_class = HandTurnConfig
+    view_distance_m = 0.5  # keys, knobs and marbles are small
     workspace = (0.0, 0.0, 0.06)
     environment_state_names = (
         "turn.knob.x",

@@ -66,6 +66,8 @@ class Stage:
         d.mocap_pos[:] = frame.mocap_pos
         d.mocap_quat[:] = frame.mocap_quat
         d.ctrl[:] = frame.ctrl
+        if frame.task.size:
+            self.env.show_state(frame.task)  # what the scene shows of the task's state now (HandKeys' lit key)
         mujoco.mj_forward(self.model, d)
 
     def decorate(self, scn: mujoco.MjvScene, opt: mujoco.MjvOption) -> None:
@@ -162,5 +164,5 @@ def free_camera(stage: Stage) -> mujoco.MjvCamera:
     cam = mujoco.MjvCamera()
     cam.type = mujoco.mjtCamera.mjCAMERA_FREE
     cam.lookat[:] = stage.workspace + 0.5 * HAND_OFFSET
-    cam.distance, cam.azimuth, cam.elevation = 0.75, 200.0, -28.0
+    cam.distance, cam.azimuth, cam.elevation = stage.env.view_distance_m, 200.0, -28.0
     return cam

@@ -15,6 +15,8 @@ from recorder.hand.motion import MotionBlock, SampledMotion, Sines, min_jerk
 
 
 class DemoMotion(SampledMotion):
+    watches = False  # whether ``watch`` may revise the plan (HandTurn's does): its performer stays close behind
+
     def __init__(
         self,
         times,

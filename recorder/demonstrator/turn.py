@@ -92,6 +92,8 @@ class TurnMotion(DemoMotion):
     turns away what is left (the grip gives, closing it may have nudged the knob), and lets go only after it has sat
     at the mark for a while."""
 
+    watches = True
+
     def __init__(self, times, poses, rng, config: TurnDemoConfig, turned_s: float, let_go_s: float, palm_turns,
                  max_turn_deg: float):  # fmt: skip
         super().__init__(times, poses, rng, config.rate_hz, palm_deg=config.palm_deg, palm_turns=palm_turns)

@@ -31,6 +31,8 @@ from recorder.protocol import EventCode, EventFrame
 
 TRANSITION_S = 0.8  # the emulated hand's move back to a demonstration's start pose
 LEAD_S = 0.5  # faster than real time, the emulator runs at most this far ahead of the loop's needs
+WATCHING_LEAD_S = 0.05  # ... or this far, while a demonstrator that watches performs (its corrections come a
+# reaction time, 0.1-0.3 s, after what it saw: further ahead, the emulator would have synthesised past them)
 RATE_WINDOW_S = 1.0  # the glove's rate: frames over this much of its own time (robust to bursts and resets)
 
 
@@ -113,6 +115,7 @@ class Glove:
         self.session: SessionMotion | None = None  # the scripted demonstrations the emulated wearer performs
         self._motion: _TakenMotion | None = None
         self._demo_start = 0.0  # session time of the demonstration being performed
+        self._lead_s = LEAD_S  # how far ahead a fast emulator may synthesise
         self.motion = config.motion or motion
         if config.kind == EMULATOR:
             port = self._plug_emulator(config)
@@ -187,6 +190,7 @@ class Glove:
             start = max(self._motion.taken_s, hold) + TRANSITION_S + lead_s
             self.session.append(demo, start, TRANSITION_S)
         self._demo_start = start
+        self._lead_s = WATCHING_LEAD_S if demo.watches else LEAD_S
         self.emulator.schedule_button(start)
 
     def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0)) -> bool:
@@ -315,7 +319,7 @@ class Glove:
         end = time.monotonic() + timeout_s
         if self.emulator is not None:  # host fusion shows its first pose after the hand's rest
             hold = self.fusion.hold_until_s if not self.fusion.started else 0.0
-            self.emulator.allow(max(self._session_time(t), hold) + LEAD_S)
+            self.emulator.allow(max(self._session_time(t), hold) + self._lead_s)
         while self.track.newest_s is None or self.track.newest_s < t:
             if self.poll(timeout=0.05, until=t) == 0 and (self.source.finished or time.monotonic() > end):
                 return False

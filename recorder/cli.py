@@ -77,6 +77,13 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--fast", action="store_true", help="play an mcap:FILE back as fast as it decodes")
     m.set_defaults(func=cmd_monitor)
 
+    w = sub.add_parser("wrist", help="the tracked wrist pose, rate, latency and tracking, to check a tracker")
+    w.add_argument("--source", required=True, help="the wrist source: udp:PORT or udp:HOST:PORT (a tracker's "
+                   "pose stream; format: docs/wrist.md)")  # fmt: skip
+    w.add_argument("--duration", type=positive_float, help="seconds (default: until Ctrl-C)")
+    w.add_argument("--json", action="store_true", help="print one JSON object at the end")
+    w.set_defaults(func=cmd_wrist)
+
     lg = sub.add_parser("log", help="record a glove session to an MCAP file")
     lg.add_argument("--port", required=True, help=PORT_HELP)
     lg.add_argument("--out", required=True, help="output .mcap file")
@@ -200,6 +207,43 @@ def cmd_monitor(args) -> int:
         except KeyboardInterrupt:
             pass
     return _finish(monitor, args, "link")
+
+
+def cmd_wrist(args) -> int:
+    from recorder.wrist import open_wrist  # numpy and sockets: not at start-up
+    from recorder.wrist.monitor import WristMonitor
+
+    source = open_wrist(args.source)
+    with source:
+        monitor = WristMonitor(source)
+        live = not args.json and sys.stderr.isatty()
+        shown = [0.0]
+
+        def tick():
+            import time
+
+            if live and time.monotonic() - shown[0] >= 0.5:
+                shown[0] = time.monotonic()
+                sys.stderr.write("\r" + monitor.status_line() + "\x1b[K")
+                sys.stderr.flush()
+
+        try:
+            monitor.run(args.duration, tick=tick)
+        except KeyboardInterrupt:
+            pass
+    if live:
+        sys.stderr.write("\n")
+    report = monitor.report()
+    if args.json:
+        print(json.dumps(report), flush=True)
+    if monitor.poses == 0:
+        why = f": {report['last_rejection']}" if report["last_rejection"] else ""
+        raise GloverecError(f"no wrist poses on {source.name} in {report['duration_s']:.1f} s "
+                            f"({report['rejected']} datagrams rejected{why})")  # fmt: skip
+    if not args.json:
+        print(monitor.status_line() + f"; {report['poses']} poses, {report['lost']} lost, {report['rejected']} "
+              "rejected")  # fmt: skip
+    return 0
 
 
 def _glove(args):

@@ -1,0 +1,45 @@
+"""WristConfig: where the wrist's position comes from, parsed once from the spec people type (``--wrist``,
+``--source``):
+
+    scripted                 the task scripts the hand's base (today's tasks; the default)
+    udp:9100, udp:HOST:9100  6-DoF poses from any tracker, one datagram each (recorder/wrist/format.py)
+
+A camera and marker source and session-log playback are to come (issue 24); an unknown kind lists these.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from recorder.config import ConfigError
+
+SCRIPTED = "scripted"
+KINDS = (SCRIPTED, "udp")
+SPECS = "scripted, udp:PORT or udp:HOST:PORT"
+
+
+@dataclass(frozen=True)
+class WristConfig:
+    """A wrist source. ``kind``: scripted or udp; ``host``, ``port``: where a udp source listens."""
+
+    kind: str = SCRIPTED
+    host: str = "0.0.0.0"
+    port: int = 0
+
+    @classmethod
+    def parse(cls, spec: str | WristConfig) -> WristConfig:
+        if isinstance(spec, WristConfig):
+            return spec
+        text = str(spec).strip()
+        if text == SCRIPTED:
+            return cls()
+        kind, sep, rest = text.partition(":")
+        if kind != "udp" or not sep:
+            raise ConfigError(f"unknown wrist source {text!r}; valid: {SPECS}")
+        host, _, port = rest.rpartition(":")
+        if not port.isdigit() or not 0 < int(port) < 65536:
+            raise ConfigError(f"bad wrist source {text!r}: the port must be 1-65535 ({SPECS})")
+        return cls("udp", host or "0.0.0.0", int(port))
+
+    def __str__(self) -> str:
+        return SCRIPTED if self.kind == SCRIPTED else f"udp:{self.host}:{self.port}"

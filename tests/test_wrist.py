@@ -1,0 +1,148 @@
+"""The wrist from a tracker (recorder/wrist): the pose message and its binary twin, the UDP source, and
+`gloverec wrist --source udp:PORT` as docs/wrist.md shows it, against a real socket."""
+
+import json
+import socket
+import threading
+import time
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from conftest import cli
+from recorder.wrist.config import WristConfig
+from recorder.wrist.format import WristFormatError, WristPose, decode, encode_binary, encode_json
+
+finite = st.floats(-1e3, 1e3, allow_nan=False, width=32)
+
+
+@st.composite
+def poses(draw):
+    q = np.array([draw(st.floats(-1, 1, allow_nan=False)) for _ in range(4)])
+    if np.linalg.norm(q) < 1e-3:
+        q = np.array([1.0, 0, 0, 0])
+    q = (q / np.linalg.norm(q)).astype(np.float32).astype(float)
+    seq, t = draw(st.integers(0, 2**32 - 1)), draw(st.floats(0, 2e9, allow_nan=False))
+    return WristPose(seq, t, np.array([draw(finite) for _ in range(3)]), q / np.linalg.norm(q), draw(st.booleans()))
+
+
+@given(poses())
+def test_both_encodings_carry_the_pose(pose):
+    for data in (encode_json(pose), encode_binary(pose)):
+        back = decode(data)
+        assert back.seq == pose.seq and back.tracked == pose.tracked and back.t == pytest.approx(pose.t)
+        np.testing.assert_allclose(back.position, pose.position, rtol=1e-6, atol=1e-4)
+        np.testing.assert_allclose(back.quat, pose.quat, atol=1e-6)
+    assert len(encode_binary(pose)) == 45
+
+
+@settings(max_examples=300)
+@given(st.binary(max_size=80))
+def test_any_bytes_are_a_pose_or_a_format_error(data):
+    try:
+        decode(data)
+    except WristFormatError:
+        pass
+
+
+@pytest.mark.parametrize(
+    "text, says",
+    [
+        ('{"seq": 1, "t": 2.0, "p": [0, 0, 0]}', "without q"),
+        ('{"seq": 1, "t": 2.0, "p": [0, 0], "q": [1, 0, 0, 0]}', "'p' must be 3 numbers"),
+        ('{"seq": 1, "t": 2.0, "p": [0, 0, 0], "q": [2, 0, 0, 0]}', "not a unit quaternion"),
+        ('{"seq": -1, "t": 2.0, "p": [0, 0, 0], "q": [1, 0, 0, 0]}', "'seq' must be an integer"),
+        ("[1, 2]", "a JSON object"),
+        ("hello", "not a wrist pose"),
+    ],
+)
+def test_a_bad_message_says_what_is_wrong(text, says):
+    with pytest.raises(WristFormatError, match=says):
+        decode(text.encode())
+
+
+def test_wrist_specs():
+    assert str(WristConfig.parse("udp:9100")) == "udp:0.0.0.0:9100"
+    assert str(WristConfig.parse("udp:127.0.0.1:9100")) == "udp:127.0.0.1:9100"
+    assert WristConfig.parse("scripted").kind == "scripted"
+
+
+def _free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _listening(port: int) -> bool:
+    """Whether a UDP socket of this machine is bound to ``port`` (Linux's /proc/net/udp)."""
+    with open("/proc/net/udp") as f:
+        return any(line.split()[1].endswith(f":{port:04X}") for line in list(f)[1:])
+
+
+def _tracker(port: int, seconds: float, rate_hz: float = 100.0, stop=None):
+    """A tracker on this machine, once the command listens: a circle at ``rate_hz``, every 10th pose untracked, a
+    datagram that is not a pose, and one late (repeated) datagram."""
+    while not _listening(port) and not (stop and stop.is_set()):
+        time.sleep(0.01)
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    start, k, late = time.time(), 0, None
+    while time.time() - start < seconds and not (stop and stop.is_set()):
+        now = time.time()
+        a = 2 * np.pi * 0.5 * (now - start)
+        pose = WristPose(k, now, np.array([0.3 + 0.1 * np.cos(a), 0.1 * np.sin(a), 0.9]),
+                         np.array([np.cos(a / 2), 0, 0, np.sin(a / 2)]), tracked=k % 10 != 9)  # fmt: skip
+        sock.sendto((encode_binary if k % 2 else encode_json)(pose), ("127.0.0.1", port))
+        if k == 50:
+            late = encode_json(pose)
+        if k == 60:
+            sock.sendto(b"garbage", ("127.0.0.1", port))
+            sock.sendto(late, ("127.0.0.1", port))  # older than the newest: dropped
+        k += 1
+        time.sleep(max(0.0, start + k / rate_hz - time.time()))
+    sock.close()
+
+
+def test_gloverec_wrist_reports_a_tracker_s_poses():
+    port = _free_port()
+    stop = threading.Event()
+    sender = threading.Thread(target=_tracker, args=(port, 3.0), kwargs={"stop": stop}, daemon=True)
+    sender.start()
+    r = cli("wrist", "--source", f"udp:127.0.0.1:{port}", "--duration", "1.5", "--json")
+    stop.set()
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout.strip().splitlines()[-1])
+    assert out["poses"] > 80 and 80 < out["rate_hz"] < 120, out
+    assert out["rejected"] == 1 and out["late"] == 1 and out["lost"] == 0, out
+    assert 0.85 <= out["tracked_fraction"] <= 0.95  # every 10th pose untracked
+    assert out["latency_ms_p50"] is not None and 0 <= out["latency_ms_p50"] < 50
+    p = np.array(out["position_m"])
+    assert 0.19 <= p[0] <= 0.41 and abs(p[2] - 0.9) < 1e-4
+
+
+@pytest.mark.parametrize(
+    "args, says",
+    [
+        (["--source", "webcam:0"], "unknown wrist source 'webcam:0'; valid: scripted, udp:PORT or udp:HOST:PORT"),
+        (["--source", "udp:0"], "bad wrist source 'udp:0': the port must be 1-65535"),
+        (["--source", "scripted"], "the scripted wrist is the task's"),
+    ],
+)
+def test_bad_wrist_sources_are_one_line(args, says):
+    r = cli("wrist", *args, "--duration", "0.2")
+    assert r.returncode == 1 and says in r.stderr and r.stderr.count("\n") == 1, r.stderr
+
+
+def test_a_silent_tracker_is_one_line_after_the_duration():
+    port = _free_port()
+
+    def send():
+        while not _listening(port):
+            time.sleep(0.01)
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            s.sendto(b'{"seq": 1}', ("127.0.0.1", port))
+
+    threading.Thread(target=send, daemon=True).start()
+    r = cli("wrist", "--source", f"udp:127.0.0.1:{port}", "--duration", "0.6")
+    assert r.returncode == 1 and r.stderr.count("\n") == 1, r.stderr
+    assert "no wrist poses on udp:127.0.0.1:" in r.stderr and "1 datagrams rejected: wrist pose without t" in r.stderr

@@ -146,3 +146,56 @@ def test_a_silent_tracker_is_one_line_after_the_duration():
     r = cli("wrist", "--source", f"udp:127.0.0.1:{port}", "--duration", "0.6")
     assert r.returncode == 1 and r.stderr.count("\n") == 1, r.stderr
     assert "no wrist poses on udp:127.0.0.1:" in r.stderr and "1 datagrams rejected: wrist pose without t" in r.stderr
+
+
+# ---------------------------------------------------------------- the marker seen by a camera (rendered)
+
+
+@pytest.fixture(scope="module")
+def scene():
+    from recorder.wrist.marker import MarkerScene
+
+    s = MarkerScene()
+    yield s
+    s.close()
+
+
+def _facing(turn_deg: float, axis=(0.0, 0.0, 1.0)):
+    """The marker facing the camera (its +z toward the camera at the origin, up the world's +z), turned."""
+    from recorder import quat
+
+    face = quat.from_two_vectors(np.array([0.0, 0, 1]), np.array([-1.0, 0, 0]))
+    return quat.mul(quat.from_axis_angle(np.array(axis), np.radians(turn_deg)), face)
+
+
+@pytest.mark.parametrize("distance, turn, axis", [(0.45, 0, (0, 0, 1)), (0.6, 35, (0, 0, 1)), (0.5, -40, (0, 1, 0))])
+def test_the_marker_s_pose_is_found_in_a_rendered_webcam_image(scene, distance, turn, axis):
+    from recorder import quat
+    from recorder.wrist.marker import MarkerTracker
+
+    tracker = MarkerTracker(scene.marker, scene.camera)
+    image, position, orientation = scene.render([distance, 0.04, -0.03], _facing(turn, axis))
+    found = tracker.track(image)
+    assert found is not None
+    assert np.linalg.norm(found.position - position) < 0.008  # per frame, no filtering: about 1 % of the distance
+    assert np.degrees(quat.angle_between(found.quat, orientation)) < 3.0
+    assert found.error_px < 0.5 and found.alternative is not None  # IPPE's two poses, the right one first here
+
+
+def test_no_marker_in_view_is_none(scene):
+    from recorder.wrist.marker import MarkerTracker
+
+    tracker = MarkerTracker(scene.marker, scene.camera)
+    image, *_ = scene.render([-0.5, 0.0, 0.0], _facing(0))  # behind the camera
+    assert tracker.track(image) is None
+
+
+def test_a_camera_calibration_file_round_trips_and_a_bad_one_is_one_line(tmp_path, scene):
+    from recorder import GloverecError
+    from recorder.wrist.marker import CameraModel
+
+    scene.camera.save(tmp_path / "cam.json")
+    assert CameraModel.load(tmp_path / "cam.json") == scene.camera
+    (tmp_path / "bad.json").write_text('{"width": 640}')
+    with pytest.raises(GloverecError, match="bad camera calibration .*bad.json"):
+        CameraModel.load(tmp_path / "bad.json")

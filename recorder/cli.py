@@ -79,7 +79,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     w = sub.add_parser("wrist", help="the tracked wrist pose, rate, latency and tracking, to check a tracker")
     w.add_argument("--source", required=True, help="the wrist source: udp:PORT or udp:HOST:PORT (a tracker's "
-                   "pose stream; format: docs/wrist.md)")  # fmt: skip
+                   "pose stream; format: docs/wrist.md), or marker:CAMERA (a device index, video file or "
+                   "URL)")  # fmt: skip
+    w.add_argument("--camera", metavar="FILE.json", help="the camera's calibration, for marker:CAMERA")
+    w.add_argument("--marker-mm", type=positive_float, default=40.0, help="the marker's side, mm (default 40)")
     w.add_argument("--duration", type=positive_float, help="seconds (default: until Ctrl-C)")
     w.add_argument("--json", action="store_true", help="print one JSON object at the end")
     w.set_defaults(func=cmd_wrist)
@@ -213,7 +216,7 @@ def cmd_wrist(args) -> int:
     from recorder.wrist import open_wrist  # numpy and sockets: not at start-up
     from recorder.wrist.monitor import WristMonitor
 
-    source = open_wrist(args.source)
+    source = open_wrist(args.source, args.camera, args.marker_mm)
     with source:
         monitor = WristMonitor(source)
         live = not args.json and sys.stderr.isatty()
@@ -238,7 +241,7 @@ def cmd_wrist(args) -> int:
         print(json.dumps(report), flush=True)
     if monitor.poses == 0:
         why = f": {report['last_rejection']}" if report["last_rejection"] else ""
-        raise GloverecError(f"no wrist poses on {source.name} in {report['duration_s']:.1f} s "
+        raise GloverecError(f"no wrist poses from {source.name} in {report['duration_s']:.1f} s "
                             f"({report['rejected']} datagrams rejected{why})")  # fmt: skip
     if not args.json:
         print(monitor.status_line() + f"; {report['poses']} poses, {report['lost']} lost, {report['rejected']} "

@@ -123,7 +123,7 @@ def test_gloverec_wrist_reports_a_tracker_s_poses():
 @pytest.mark.parametrize(
     "args, says",
     [
-        (["--source", "webcam:0"], "unknown wrist source 'webcam:0'; valid: scripted, udp:PORT or udp:HOST:PORT"),
+        (["--source", "webcam:0"], "unknown wrist source 'webcam:0'; valid: scripted, udp:PORT, udp:HOST:PORT or mar"),
         (["--source", "udp:0"], "bad wrist source 'udp:0': the port must be 1-65535"),
         (["--source", "scripted"], "the scripted wrist is the task's"),
     ],
@@ -145,7 +145,7 @@ def test_a_silent_tracker_is_one_line_after_the_duration():
     threading.Thread(target=send, daemon=True).start()
     r = cli("wrist", "--source", f"udp:127.0.0.1:{port}", "--duration", "0.6")
     assert r.returncode == 1 and r.stderr.count("\n") == 1, r.stderr
-    assert "no wrist poses on udp:127.0.0.1:" in r.stderr and "1 datagrams rejected: wrist pose without t" in r.stderr
+    assert "no wrist poses from udp:127.0.0.1:" in r.stderr and "1 datagrams rejected: wrist pose without t" in r.stderr
 
 
 # ---------------------------------------------------------------- the marker seen by a camera (rendered)
@@ -199,3 +199,39 @@ def test_a_camera_calibration_file_round_trips_and_a_bad_one_is_one_line(tmp_pat
     (tmp_path / "bad.json").write_text('{"width": 640}')
     with pytest.raises(GloverecError, match="bad camera calibration .*bad.json"):
         CameraModel.load(tmp_path / "bad.json")
+
+
+def test_gloverec_wrist_follows_a_marker_in_a_video(tmp_path, scene):
+    """`gloverec wrist --source marker:VIDEO --camera CAM.json`: a rendered, lossless video of the marker moving
+    across the view (its truth kept) played as a camera would deliver it."""
+    from recorder import quat
+
+    n = 24
+    xs = np.linspace(0.45, 0.6, n)
+    positions = [[x, 0.05 * np.sin(k / 4), 0.02] for k, x in enumerate(xs)]
+    quats = [
+        quat.mul(quat.from_axis_angle(np.array([0.0, 0, 1]), np.radians(20 * k / n)), _facing(0)) for k in range(n)
+    ]
+    truth_p, _ = scene.record(tmp_path / "webcam.mkv", positions, quats, fps=30)
+    scene.camera.save(tmp_path / "webcam.json")
+    r = cli("wrist", "--source", f"marker:{tmp_path / 'webcam.mkv'}", "--camera", str(tmp_path / "webcam.json"),
+            "--duration", "20", "--json")  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout.strip().splitlines()[-1])
+    assert out["poses"] == n and out["tracked_fraction"] == 1.0 and out["duration_s"] < 10  # ends with the video
+    assert 20 < out["rate_hz"] < 40  # played at the video's 30 frames/s
+    assert np.linalg.norm(np.array(out["position_m"]) - truth_p[-1]) < 0.008
+    assert out["latency_ms_p99"] < 100  # from reading a frame to its pose
+
+
+def test_a_marker_source_s_bad_inputs_are_one_line(tmp_path, scene):
+    scene.camera.save(tmp_path / "cam.json")
+    (tmp_path / "not_a_video.mkv").write_text("hello")
+    for args, says in (
+        (["--source", f"marker:{tmp_path / 'missing.mkv'}", "--camera", str(tmp_path / "cam.json")], "cannot open"),
+        (["--source", f"marker:{tmp_path / 'not_a_video.mkv'}", "--camera", str(tmp_path / "cam.json")], "cannot open"),
+        (["--source", "marker:0"], "needs its camera's calibration: pass --camera"),
+        (["--source", "marker:0", "--camera", str(tmp_path / "none.json")], "bad camera calibration"),
+    ):
+        r = cli("wrist", *args, "--duration", "1")
+        assert r.returncode == 1 and says in r.stderr and r.stderr.count("\n") == 1, r.stderr

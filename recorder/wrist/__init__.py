@@ -8,11 +8,20 @@ from recorder import GloverecError
 from recorder.wrist.config import SCRIPTED, WristConfig
 
 
-def open_wrist(spec):
-    """The unopened source ``spec`` names (a context manager: ``with open_wrist("udp:9100") as w: w.take()``)."""
+def open_wrist(spec, camera_file: str | None = None, marker_mm: float = 40.0):
+    """The unopened source ``spec`` names (a context manager: ``with open_wrist("udp:9100") as w: w.take()``);
+    a marker source needs its camera's calibration (``camera_file``, JSON: recorder/wrist/marker.py CameraModel)
+    and the marker's size."""
     config = WristConfig.parse(spec)
     if config.kind == SCRIPTED:
         raise GloverecError("the scripted wrist is the task's: there is no tracker to open (pass udp:PORT)")
+    if config.kind == "marker":
+        from recorder.wrist.camera import MarkerWrist
+        from recorder.wrist.marker import CameraModel, MarkerSpec
+
+        if not camera_file:
+            raise GloverecError(f"{config} needs its camera's calibration: pass --camera FILE.json")
+        return MarkerWrist(config.camera, CameraModel.load(camera_file), MarkerSpec(size_m=marker_mm / 1000.0))
     from recorder.wrist.udp import UdpWrist
 
     return UdpWrist(config.host, config.port)

@@ -3,8 +3,10 @@
 
     scripted                 the task scripts the hand's base (today's tasks; the default)
     udp:9100, udp:HOST:9100  6-DoF poses from any tracker, one datagram each (recorder/wrist/format.py)
+    marker:CAMERA            a printed marker on the glove seen by a camera: a device index (0), a video file or
+                             a stream URL, as cv2.VideoCapture opens it (recorder/wrist/camera.py)
 
-A camera and marker source and session-log playback are to come (issue 24); an unknown kind lists these.
+Session-log playback is to come (issue 24); an unknown kind lists these.
 """
 
 from __future__ import annotations
@@ -14,17 +16,19 @@ from dataclasses import dataclass
 from recorder.config import ConfigError
 
 SCRIPTED = "scripted"
-KINDS = (SCRIPTED, "udp")
-SPECS = "scripted, udp:PORT or udp:HOST:PORT"
+KINDS = (SCRIPTED, "udp", "marker")
+SPECS = "scripted, udp:PORT, udp:HOST:PORT or marker:CAMERA (a device index, video file or stream URL)"
 
 
 @dataclass(frozen=True)
 class WristConfig:
-    """A wrist source. ``kind``: scripted or udp; ``host``, ``port``: where a udp source listens."""
+    """A wrist source. ``kind``: scripted, udp or marker; ``host``, ``port``: where a udp source listens;
+    ``camera``: what a marker source opens (a device index, a video file or a stream URL)."""
 
     kind: str = SCRIPTED
     host: str = "0.0.0.0"
     port: int = 0
+    camera: str = ""
 
     @classmethod
     def parse(cls, spec: str | WristConfig) -> WristConfig:
@@ -34,6 +38,8 @@ class WristConfig:
         if text == SCRIPTED:
             return cls()
         kind, sep, rest = text.partition(":")
+        if kind == "marker" and rest:
+            return cls("marker", camera=rest)
         if kind != "udp" or not sep:
             raise ConfigError(f"unknown wrist source {text!r}; valid: {SPECS}")
         host, _, port = rest.rpartition(":")
@@ -42,4 +48,6 @@ class WristConfig:
         return cls("udp", host or "0.0.0.0", int(port))
 
     def __str__(self) -> str:
+        if self.kind == "marker":
+            return f"marker:{self.camera}"
         return SCRIPTED if self.kind == SCRIPTED else f"udp:{self.host}:{self.port}"

@@ -179,6 +179,24 @@ class MarkerScene:
         r_marker = r_cv.T @ quat.to_matrix(quat_wxyz)
         return image, p, _matrix_to_quat(r_marker)
 
+    def record(self, path: str | Path, positions, quats, fps: float = 30.0) -> tuple[np.ndarray, np.ndarray]:
+        """A lossless video (FFV1; a .mkv or .avi) of the marker at each (position, quat), world frame, at ``fps``:
+        what a webcam would have filmed. Returns the truth, (n, 3) positions and (n, 4) quats in the camera's frame."""
+        writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), fps,
+                                 (self.camera.width, self.camera.height))  # fmt: skip
+        if not writer.isOpened():
+            raise GloverecError(f"cannot write the video {path} (FFV1: use .mkv or .avi)")
+        truth_p, truth_q = [], []
+        try:
+            for position, q in zip(positions, quats):
+                image, p, qc = self.render(position, q)
+                writer.write(image[..., ::-1])  # OpenCV writes BGR
+                truth_p.append(p)
+                truth_q.append(qc)
+        finally:
+            writer.release()
+        return np.array(truth_p), np.array(truth_q)
+
     def close(self) -> None:
         self.renderer.close()
 

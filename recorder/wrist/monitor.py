@@ -32,8 +32,11 @@ class WristMonitor:
     def run(self, duration: float | None, tick=None) -> None:
         end = None if duration is None else time.monotonic() + duration
         while end is None or time.monotonic() < end:
+            finished = self.source.finished  # before taking: what came before the end is taken
             for pose, arrived in self.source.take():
                 self.consume(pose, arrived)
+            if finished:
+                break
             if tick is not None:
                 tick()
             time.sleep(0.01)

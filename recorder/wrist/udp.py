@@ -19,6 +19,7 @@ class UdpWrist:
         self.bad = 0  # datagrams that were not wrist poses
         self.late = 0  # older than the newest pose
         self.last_error: str | None = None
+        self.finished = False  # a live stream never finishes
         self._queue: deque[tuple[WristPose, float]] = deque(maxlen=4096)  # (pose, arrival, Unix time)
         self._sock: socket.socket | None = None
         self._thread: threading.Thread | None = None

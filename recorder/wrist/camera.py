@@ -1,0 +1,92 @@
+"""MarkerWrist: the wrist from a printed marker seen by a camera. A thread reads frames with OpenCV
+(``cv2.VideoCapture``: a device index, a video file or a stream URL), tracks the marker in each
+(recorder/wrist/marker.py) and queues a WristPose per frame: ``t`` is when the frame was read, so the latency
+reported is the tracking's; a frame without the marker repeats the last pose with ``tracked`` false. A video file
+plays at its own frame rate, as a camera would deliver it, and the source is ``finished`` at its end."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import deque
+
+import numpy as np
+
+from recorder import GloverecError
+from recorder.wrist.format import WristPose
+from recorder.wrist.marker import CameraModel, MarkerSpec, MarkerTracker
+
+
+class MarkerWrist:
+    def __init__(self, camera: str, model: CameraModel, marker: MarkerSpec | None = None):
+        self.address = camera
+        self.name = f"marker:{camera}"
+        self.model, self.marker = model, marker or MarkerSpec()
+        self.bad = self.late = 0  # the UDP source's counters, for the monitor: a camera has neither
+        self.last_error: str | None = None
+        self.finished = False
+        self.frames = 0
+        self._queue: deque = deque(maxlen=4096)
+        self._stop = threading.Event()
+        self._thread = None
+        self._capture = None
+
+    def open(self) -> MarkerWrist:
+        import cv2
+
+        source = int(self.address) if self.address.isdigit() else self.address
+        capture = cv2.VideoCapture(source)
+        if not capture.isOpened():
+            raise GloverecError(f"cannot open the camera or video {self.address!r} (a device index, file or URL)")
+        ok, first = capture.read()
+        if not ok:
+            capture.release()
+            raise GloverecError(f"no frames from {self.address!r}: is it a video?")
+        h, w = first.shape[:2]
+        if (w, h) != (self.model.width, self.model.height):
+            capture.release()
+            raise GloverecError(f"{self.address!r} gives {w}x{h} frames, the camera calibration is for "
+                                f"{self.model.width}x{self.model.height}")  # fmt: skip
+        self._capture = capture
+        fps = capture.get(cv2.CAP_PROP_FPS)
+        self._period = 1.0 / fps if not isinstance(source, int) and fps and fps > 0 else 0.0
+        self._thread = threading.Thread(target=self._run, args=(first,), name="wrist-camera", daemon=True)
+        self._thread.start()
+        return self
+
+    def _run(self, frame) -> None:
+        tracker = MarkerTracker(self.marker, self.model)
+        last, start = None, time.monotonic()
+        while frame is not None and not self._stop.is_set():
+            read_at = time.time()
+            found = tracker.track(frame[..., ::-1])  # OpenCV's BGR
+            if found is not None:
+                last = (found.position, found.quat)
+            if last is not None:
+                self._queue.append((WristPose(self.frames, read_at, np.array(last[0]), np.array(last[1]),
+                                              found is not None), time.time()))  # fmt: skip
+            self.frames += 1
+            if self._period:  # a file plays at its frame rate
+                time.sleep(max(0.0, start + self.frames * self._period - time.monotonic()))
+            ok, frame = self._capture.read()
+            frame = frame if ok else None
+        self.finished = True
+
+    def take(self) -> list:
+        out = []
+        while self._queue:
+            out.append(self._queue.popleft())
+        return out
+
+    def close(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(2.0)
+        if self._capture is not None:
+            self._capture.release()
+
+    def __enter__(self) -> MarkerWrist:
+        return self.open()
+
+    def __exit__(self, *exc) -> None:
+        self.close()

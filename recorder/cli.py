@@ -81,7 +81,8 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--source", required=True, help="the wrist source: udp:PORT or udp:HOST:PORT (a tracker's "
                    "pose stream; format: docs/wrist.md), or marker:CAMERA (a device index, video file or "
                    "URL)")  # fmt: skip
-    w.add_argument("--camera", metavar="FILE.json", help="the camera's calibration, for marker:CAMERA")
+    w.add_argument("--camera", metavar="FILE.json", help="the camera's calibration, for marker:CAMERA (default: "
+                   "the one `gloverec calibrate --camera CAMERA` saved)")  # fmt: skip
     w.add_argument("--marker-mm", type=positive_float, default=40.0, help="the marker's side, mm (default 40)")
     w.add_argument("--duration", type=positive_float, help="seconds (default: until Ctrl-C)")
     w.add_argument("--json", action="store_true", help="print one JSON object at the end")

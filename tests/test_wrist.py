@@ -230,8 +230,46 @@ def test_a_marker_source_s_bad_inputs_are_one_line(tmp_path, scene):
     for args, says in (
         (["--source", f"marker:{tmp_path / 'missing.mkv'}", "--camera", str(tmp_path / "cam.json")], "cannot open"),
         (["--source", f"marker:{tmp_path / 'not_a_video.mkv'}", "--camera", str(tmp_path / "cam.json")], "cannot open"),
-        (["--source", "marker:0"], "needs its camera's calibration: pass --camera"),
+        (["--source", "marker:0"], "needs its camera's calibration: run gloverec calibrate --camera 0, or pass"),
         (["--source", "marker:0", "--camera", str(tmp_path / "none.json")], "bad camera calibration"),
     ):
-        r = cli("wrist", *args, "--duration", "1")
+        r = cli("wrist", *args, "--duration", "1", env={"GLOVEREC_CALIBRATION_DIR": str(tmp_path / "none")})
         assert r.returncode == 1 and says in r.stderr and r.stderr.count("\n") == 1, r.stderr
+
+
+def test_gloverec_calibrate_camera_finds_a_rendered_camera_s_intrinsics(tmp_path):
+    """`gloverec calibrate --camera VIDEO`: a ChArUco board moved through a rendered webcam's view (a lossless
+    video, the camera's true intrinsics known) gives those intrinsics back; a video without the board is one line."""
+    from recorder import quat
+    from recorder.wrist.calibration import BoardSpec
+    from recorder.wrist.marker import PlateScene
+
+    board = BoardSpec()
+    scene = PlateScene(board.image(), board.size_m())
+    rng = np.random.default_rng(1)
+    face = _facing(0)
+    positions, quats = [], []
+    for _ in range(14):
+        positions.append([rng.uniform(0.35, 0.6), rng.uniform(-0.05, 0.05), rng.uniform(-0.04, 0.04)])
+        axis = np.array([0.0, *rng.normal(size=2)])
+        tilt = quat.from_axis_angle(axis / np.linalg.norm(axis), np.radians(rng.uniform(10, 40)))
+        quats.append(quat.mul(tilt, face))
+    scene.record(tmp_path / "board.mkv", positions, quats)
+    truth = scene.camera
+    scene.close()
+    r = cli("calibrate", "--camera", str(tmp_path / "board.mkv"), "--dir", str(tmp_path / "cal"), "--json")
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout.strip().splitlines()[-1])
+    assert out["views"] >= 10 and out["rms_px"] < 0.5, out
+    assert abs(out["fx"] / truth.fx - 1) < 0.02 and abs(out["fy"] / truth.fy - 1) < 0.02, (out, truth)
+    assert abs(out["cx"] - truth.cx) < 8 and abs(out["cy"] - truth.cy) < 8, (out, truth)
+    assert out["path"].endswith("camera_board.mkv.json")
+
+    empty = tmp_path / "empty.mkv"
+    from recorder.wrist.marker import MarkerScene
+
+    s = MarkerScene()
+    s.record(empty, [[-0.5, 0, 0]] * 6, [face] * 6)  # nothing in view
+    s.close()
+    r = cli("calibrate", "--camera", str(empty), "--dir", str(tmp_path / "cal"))
+    assert r.returncode == 1 and "only 0 views showed the board" in r.stderr and r.stderr.count("\n") == 1

@@ -65,6 +65,13 @@ def add_parser(sub) -> None:
         help="a live view of each step on the human hand: native, web[:PORT], rerun[:MODE], "
         "none (default: native with a display and a terminal, else none)",
     )
+    c.add_argument(
+        "--camera",
+        metavar="CAMERA",
+        help="calibrate a camera instead, from views of a ChArUco board (recorder/wrist/calibration.py): a device "
+        "index, a video file or a stream URL; saved as camera_<name>.json in --dir (docs/wrist.md)",
+    )
+    c.add_argument("--views", type=positive_int, default=30, help="board views to take from --camera (default 30)")
     c.add_argument("--json", action="store_true", help="print a JSON summary instead of the table")
     c.set_defaults(func=cmd_calibrate)
 
@@ -80,6 +87,8 @@ def _glove_id(text: str) -> int:
 
 
 def cmd_calibrate(args) -> int:
+    if args.camera is not None:
+        return _calibrate_camera(args)
     from recorder.hand.profile import measured_profile, save_profile, segments_from
 
     measured = args.hand_length is not None or args.hand_breadth is not None
@@ -121,5 +130,24 @@ def cmd_calibrate(args) -> int:
             f"{profile.breadth_mm:.0f} mm ({profile.source})"
         )
         text = f"{text}\n{line}" if args.glove is not None else line
+    print(json.dumps(out) if args.json else text)
+    return 0
+
+
+def _calibrate_camera(args) -> int:
+    from recorder.paths import calibration_dir
+    from recorder.wrist.calibration import calibrate, camera_file, frames_of
+
+    if args.glove is not None or args.wearer is not None:
+        raise GloverecError("--camera calibrates a camera alone: drop --glove and --wearer")
+    model, rms, used = calibrate(frames_of(args.camera, args.views))
+    path = camera_file(calibration_dir(args.dir), args.camera)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    model.save(path)
+    out = {"camera": args.camera, "path": str(path), "views": used, "rms_px": round(rms, 3), **model.__dict__}
+    text = (
+        f"camera {args.camera}: {model.width}x{model.height}, fx {model.fx:.1f} fy {model.fy:.1f} px, centre "
+        f"({model.cx:.1f}, {model.cy:.1f}), reprojection {rms:.2f} px over {used} views; saved to {path}"
+    )
     print(json.dumps(out) if args.json else text)
     return 0

@@ -10,8 +10,8 @@ from recorder.wrist.config import SCRIPTED, WristConfig
 
 def open_wrist(spec, camera_file: str | None = None, marker_mm: float = 40.0):
     """The unopened source ``spec`` names (a context manager: ``with open_wrist("udp:9100") as w: w.take()``);
-    a marker source needs its camera's calibration (``camera_file``, JSON: recorder/wrist/marker.py CameraModel)
-    and the marker's size."""
+    a marker source needs its camera's calibration (``camera_file``, JSON: recorder/wrist/marker.py CameraModel;
+    default: the one `gloverec calibrate --camera CAMERA` saved) and the marker's size."""
     config = WristConfig.parse(spec)
     if config.kind == SCRIPTED:
         raise GloverecError("the scripted wrist is the task's: there is no tracker to open (pass udp:PORT)")
@@ -20,7 +20,13 @@ def open_wrist(spec, camera_file: str | None = None, marker_mm: float = 40.0):
         from recorder.wrist.marker import CameraModel, MarkerSpec
 
         if not camera_file:
-            raise GloverecError(f"{config} needs its camera's calibration: pass --camera FILE.json")
+            from recorder.paths import calibration_dir
+            from recorder.wrist.calibration import camera_file as saved
+
+            camera_file = saved(calibration_dir(), config.camera)
+            if not camera_file.exists():
+                raise GloverecError(f"{config} needs its camera's calibration: run gloverec calibrate --camera "
+                                    f"{config.camera}, or pass --camera FILE.json")  # fmt: skip
         return MarkerWrist(config.camera, CameraModel.load(camera_file), MarkerSpec(size_m=marker_mm / 1000.0))
     from recorder.wrist.udp import UdpWrist
 

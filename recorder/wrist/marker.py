@@ -128,21 +128,18 @@ class MarkerTracker:
 _CV_FROM_MJ = np.diag([1.0, -1.0, -1.0])  # MuJoCo's camera looks down its -z with y up; OpenCV's down +z, y down
 
 
-class MarkerScene:
-    """What a webcam sees of the marker: a camera at the world origin looking along +x (a desk webcam), and the
-    printed marker (with its white quiet zone) on a mocap body; ``render(position, quat)`` places the marker
-    (world frame) and returns the RGB image and the marker's true pose in the camera's frame."""
+class PlateScene:
+    """What a webcam sees of a printed plate: a camera at the world origin looking along +x (a desk webcam), and
+    ``image`` (uint8 grey) printed ``plate_m`` (width, height, m) on a mocap body; ``render(position, quat)`` places
+    the plate's centre (world frame) and returns the RGB image and the plate's true pose in the camera's frame."""
 
-    def __init__(self, marker: MarkerSpec = MarkerSpec(), width: int = 640, height: int = 480, fovy_deg: float = 45.0):
+    def __init__(self, image: np.ndarray, plate_m: tuple[float, float], width: int = 640, height: int = 480,
+                 fovy_deg: float = 45.0):  # fmt: skip
         import tempfile
 
         import mujoco
 
-        self.marker = marker
         self.camera = CameraModel.from_fovy(width, height, fovy_deg)
-        image = marker.image()
-        cells = marker.aruco().markerSize + 2
-        plate = marker.size_m * (cells + 2) / cells  # the square plus its quiet zone
         spec = mujoco.MjSpec()
         spec.visual.global_.offwidth, spec.visual.global_.offheight = width, height
         spec.stat.extent = 1.0  # clipping planes 1 cm to 50 m (the model alone is a 5 cm plate)
@@ -156,8 +153,8 @@ class MarkerScene:
             spec.worldbody.add_light(pos=[0, 0, 0], dir=[1, 0, 0], diffuse=[0.5, 0.5, 0.5], castshadow=False)
             spec.visual.headlight.ambient = [0.4, 0.4, 0.4]
             body = spec.worldbody.add_body(name="marker", mocap=True)
-            body.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[plate / 2, plate / 2, 0.001], material="marker",
-                          contype=0, conaffinity=0)  # fmt: skip
+            body.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[plate_m[0] / 2, plate_m[1] / 2, 0.001],
+                          material="marker", contype=0, conaffinity=0)  # fmt: skip
             # the camera at the origin looking along +x, up +z: its -z axis is world +x
             spec.worldbody.add_camera(name="webcam", pos=[0, 0, 0], xyaxes=[0, -1, 0, 0, 0, 1], fovy=fovy_deg)
             self.model = spec.compile()
@@ -199,6 +196,16 @@ class MarkerScene:
 
     def close(self) -> None:
         self.renderer.close()
+
+
+class MarkerScene(PlateScene):
+    """The printed marker (with its white quiet zone) seen by the webcam; its frame is the marker's."""
+
+    def __init__(self, marker: MarkerSpec = MarkerSpec(), width: int = 640, height: int = 480, fovy_deg: float = 45.0):
+        cells = marker.aruco().markerSize + 2
+        plate = marker.size_m * (cells + 2) / cells  # the square plus its quiet zone
+        super().__init__(marker.image(), (plate, plate), width, height, fovy_deg)
+        self.marker = marker
 
 
 def _matrix_to_quat(r: np.ndarray) -> np.ndarray:

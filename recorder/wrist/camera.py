@@ -6,32 +6,26 @@ plays at its own frame rate, as a camera would deliver it, and the source is ``f
 
 from __future__ import annotations
 
-import threading
 import time
-from collections import deque
 
 import numpy as np
 
 from recorder import GloverecError
+from recorder.wrist.base import WristSource
 from recorder.wrist.format import WristPose
 from recorder.wrist.marker import CameraModel, MarkerSpec, MarkerTracker
 
 
-class MarkerWrist:
+class MarkerWrist(WristSource):
     def __init__(self, camera: str, model: CameraModel, marker: MarkerSpec | None = None):
+        super().__init__()
         self.address = camera
         self.name = f"marker:{camera}"
         self.model, self.marker = model, marker or MarkerSpec()
-        self.bad = self.late = 0  # the UDP source's counters, for the monitor: a camera has neither
-        self.last_error: str | None = None
-        self.finished = False
         self.frames = 0
-        self._queue: deque = deque(maxlen=4096)
-        self._stop = threading.Event()
-        self._thread = None
         self._capture = None
 
-    def open(self) -> MarkerWrist:
+    def _open(self) -> tuple:
         import cv2
 
         source = int(self.address) if self.address.isdigit() else self.address
@@ -50,9 +44,7 @@ class MarkerWrist:
         self._capture = capture
         fps = capture.get(cv2.CAP_PROP_FPS)
         self._period = 1.0 / fps if not isinstance(source, int) and fps and fps > 0 else 0.0
-        self._thread = threading.Thread(target=self._run, args=(first,), name="wrist-camera", daemon=True)
-        self._thread.start()
-        return self
+        return (first,)
 
     def _run(self, frame) -> None:
         tracker = MarkerTracker(self.marker, self.model)
@@ -72,21 +64,6 @@ class MarkerWrist:
             frame = frame if ok else None
         self.finished = True
 
-    def take(self) -> list:
-        out = []
-        while self._queue:
-            out.append(self._queue.popleft())
-        return out
-
-    def close(self) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(2.0)
+    def _release(self) -> None:
         if self._capture is not None:
             self._capture.release()
-
-    def __enter__(self) -> MarkerWrist:
-        return self.open()
-
-    def __exit__(self, *exc) -> None:
-        self.close()

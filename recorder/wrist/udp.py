@@ -4,29 +4,22 @@ not wrist poses are counted and skipped; late ones (an older ``seq`` than the ne
 from __future__ import annotations
 
 import socket
-import threading
 import time
-from collections import deque
 
 from recorder import GloverecError
-from recorder.wrist.format import WristFormatError, WristPose, decode
+from recorder.wrist.base import WristSource
+from recorder.wrist.format import WristFormatError, decode
 
 
-class UdpWrist:
+class UdpWrist(WristSource):
     def __init__(self, host: str, port: int):
+        super().__init__()
         self.host, self.port = host, port
         self.name = f"udp:{host}:{port}"
-        self.bad = 0  # datagrams that were not wrist poses
-        self.late = 0  # older than the newest pose
-        self.last_error: str | None = None
-        self.finished = False  # a live stream never finishes
-        self._queue: deque[tuple[WristPose, float]] = deque(maxlen=4096)  # (pose, arrival, Unix time)
         self._sock: socket.socket | None = None
-        self._thread: threading.Thread | None = None
-        self._stop = threading.Event()
         self._newest_seq: int | None = None
 
-    def open(self) -> UdpWrist:
+    def _open(self) -> tuple:
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
             sock.bind((self.host, self.port))
@@ -35,23 +28,12 @@ class UdpWrist:
             raise GloverecError(f"cannot listen for wrist poses on {self.name}: {exc.strerror or exc}") from None
         sock.settimeout(0.05)
         self._sock = sock
-        self._thread = threading.Thread(target=self._run, name="wrist-udp", daemon=True)
-        self._thread.start()
-        return self
+        return ()
 
-    def close(self) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(2.0)
+    def _release(self) -> None:
         if self._sock is not None:
             self._sock.close()
             self._sock = None
-
-    def __enter__(self) -> UdpWrist:
-        return self.open()
-
-    def __exit__(self, *exc) -> None:
-        self.close()
 
     def _run(self) -> None:
         while not self._stop.is_set():
@@ -73,10 +55,3 @@ class UdpWrist:
                 continue
             self._newest_seq = pose.seq
             self._queue.append((pose, arrived))
-
-    def take(self) -> list[tuple[WristPose, float]]:
-        """The poses that arrived since the last call, each with its arrival time (Unix s)."""
-        out = []
-        while self._queue:
-            out.append(self._queue.popleft())
-        return out

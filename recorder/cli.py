@@ -220,23 +220,10 @@ def cmd_wrist(args) -> int:
     source = open_wrist(args.source, args.camera, args.marker_mm)
     with source:
         monitor = WristMonitor(source)
-        live = not args.json and sys.stderr.isatty()
-        shown = [0.0]
-
-        def tick():
-            import time
-
-            if live and time.monotonic() - shown[0] >= 0.5:
-                shown[0] = time.monotonic()
-                sys.stderr.write("\r" + monitor.status_line() + "\x1b[K")
-                sys.stderr.flush()
-
         try:
-            monitor.run(args.duration, tick=tick)
+            monitor.run(args.duration, live=not args.json and sys.stderr.isatty())
         except KeyboardInterrupt:
             pass
-    if live:
-        sys.stderr.write("\n")
     report = monitor.report()
     if args.json:
         print(json.dumps(report), flush=True)

@@ -232,18 +232,16 @@ class HandKeysEnv(HandEnv):
         self.done = 0
         self.failed = None
         self._was_down = {f: False for f in self.key_fingers}
-        self._light()
+        self._light(self.lit())
 
-    def _light(self) -> None:
-        lit = self.lit()
+    def _light(self, lit: str | None) -> None:
+        """Light ``lit``'s key (None: none), the others not."""
         for f, (_, geom, _) in self._keys.items():
             self.model.geom_rgba[geom] = LIT if f == lit else UNLIT
 
     def show_state(self, environment_state: np.ndarray) -> None:
-        lit = environment_state[: len(FINGERS)]
-        for k, f in enumerate(FINGERS):
-            if f in self._keys:
-                self.model.geom_rgba[self._keys[f][1]] = LIT if lit[k] > 0.5 else UNLIT
+        on = [f for k, f in enumerate(FINGERS) if environment_state[k] > 0.5]
+        self._light(on[0] if on else None)
 
     def lit(self) -> str | None:
         """The finger whose key is lit now (None before the first lights and after the last press)."""
@@ -294,7 +292,7 @@ class HandKeysEnv(HandEnv):
                 else:
                     self.failed = f"{f} key pressed" + ("" if f != self.lit() else " by another finger")
             self._was_down[f] = down
-        self._light()
+        self._light(self.lit())
         success = self.failed is None and self.done == len(self.sequence)
         end = self.t >= self.config.episode_s - 1e-9
         over = (success or self.failed is not None) and self.config.terminate_on_success

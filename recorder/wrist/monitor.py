@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 import time
 
 import numpy as np
@@ -29,19 +30,26 @@ class WristMonitor:
         self.last_t, self.last = arrived, pose
         self.latencies_s.append(arrived - pose.t)
 
-    def run(self, duration: float | None, tick=None) -> None:
+    def run(self, duration: float | None, live: bool = False) -> None:
+        """Take poses for ``duration`` s (None: until the source finishes or Ctrl-C), with a status line on stderr
+        every 0.5 s when ``live`` (as LinkMonitor.run)."""
         end = None if duration is None else time.monotonic() + duration
+        next_line = time.monotonic() + 0.5
         while end is None or time.monotonic() < end:
             finished = self.source.finished  # before taking: what came before the end is taken
             for pose, arrived in self.source.take():
                 self.consume(pose, arrived)
             if finished:
                 break
-            if tick is not None:
-                tick()
+            if live and time.monotonic() >= next_line:
+                sys.stderr.write("\r" + self.status_line() + "\x1b[K")
+                sys.stderr.flush()
+                next_line += 0.5
             time.sleep(0.01)
         for pose, arrived in self.source.take():
             self.consume(pose, arrived)
+        if live:
+            sys.stderr.write("\r" + self.status_line() + "\x1b[K\n")
 
     def status_line(self) -> str:
         r = self.report()

@@ -232,8 +232,9 @@ def main() -> None:
             print(f"[ACT through lerobot-train on {pairs[0][0]} / {pairs[0][1]}]", flush=True)
             act_result = act(*pairs[0], args.act_steps, args, tmp, hub)
             print(f"  ACT: {act_result.get('eval', act_result)}", flush=True)
-    runs = merged_runs(runs, act_result)
-    act_result = act_result or previous().get("act")
+    last = previous()
+    runs = merged_runs(runs, last)
+    act_result = act_result or last.get("act")
     write_results(
         "learning",
         {
@@ -254,16 +255,17 @@ def previous() -> dict:
     return json.loads(path.read_text()) if path.exists() else {}
 
 
-def merged_runs(runs: list[dict], act_result) -> list[dict]:
-    """This run's rows, after the rows of bench/results/learning.json for the (task, robot) pairs it did not
-    measure: `--tasks pinch` adds a row and keeps the others (each row says when it was measured)."""
+def merged_runs(runs: list[dict], last: dict) -> list[dict]:
+    """This run's rows, after the rows of ``last`` (bench/results/learning.json as it was) for the (task, robot)
+    pairs it did not measure: `--tasks pinch` adds a row and keeps the others (each row says when it was
+    measured)."""
     when = time.strftime("%Y-%m-%dT%H:%M:%S%z")
     for r in runs:
         r["when"] = when
     done = {(r["task"], r["robot"]) for r in runs}
-    kept = [r for r in previous().get("runs", []) if (r["task"], r["robot"]) not in done]
+    kept = [r for r in last.get("runs", []) if (r["task"], r["robot"]) not in done]
     for r in kept:
-        r.setdefault("when", previous().get("meta", {}).get("when"))
+        r.setdefault("when", last.get("meta", {}).get("when"))
     return kept + runs
 
 

@@ -36,6 +36,7 @@ Range = tuple[float, float]
 GRIP_FINGER = "middle"  # opposes the thumb on the knob
 TARGET = np.array([1.0, 0.8, 0.1, 1.0])  # the target tick: yellow
 RING_MM = 14  # the ring's width beyond the knob's rim
+INSTRUCTION = "turn the knob {way} to the mark"  # left: counter-clockwise from above, a positive target
 
 
 @dataclass
@@ -198,7 +199,7 @@ class HandTurnEnv(HandEnv):
         return "let go" if self._held_s >= self.config.hold_s else "hold it there"
 
     def instruction(self) -> str:
-        return f"turn the knob {'left' if self.target > 0 else 'right'} to the mark"
+        return INSTRUCTION.format(way="left" if self.target > 0 else "right")
 
     def instructions(self) -> tuple[str, ...]:
-        return ("turn the knob left to the mark", "turn the knob right to the mark")
+        return tuple(INSTRUCTION.format(way=w) for w in ("left", "right"))

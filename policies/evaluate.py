@@ -35,7 +35,7 @@ import envs
 import policies.bc  # noqa: F401  (registers gloverec_bc)
 from envs.robots import load_robot, robot_names
 from envs.tasks import CAMERAS
-from envs.tasks.base import action_names
+from envs.tasks.base import BASE_POSITION, action_names
 from policies.data import dataset_info, sidecar
 from recorder import GloverecError
 from recorder.demonstrator import make_demonstrator
@@ -89,7 +89,7 @@ class DemonstratorAgent:
 
         self.env = env.unwrapped
         if self.retarget is None:
-            self.retarget = Retargeter(self.robot, "joint", base_rotation=self.env.config.base_rotation)
+            self.retarget = Retargeter.for_env(self.env)
         self.retarget.reset()
         self.motion = self.demo.plan(self.env, seed=seed)
 
@@ -97,7 +97,7 @@ class DemonstratorAgent:
         if self.env.steps:
             self.motion.watch(self.env)  # what the last step did
         block = self.motion.at([self.env.t])
-        action, _ = self.retarget(block.angles[0], block.palm_quat[0])
+        action, _ = self.retarget(block.angles[0], block.palm_quat[0], block.palm_pos[0])
         return action
 
 
@@ -220,7 +220,7 @@ def trained_setup(context: dict) -> tuple[str | None, str | None]:
 
 def _action_name_lists(robot: str) -> list[list[str]]:
     r = load_robot(robot)
-    return [list(action_names(r, base_rotation=b)) for b in (True, False)]
+    return [list(action_names(r, rot, pos)) for rot in (True, False) for pos in (False, True)]
 
 
 def _state_includes_task(agent: PolicyAgent, task: str, robot: str) -> bool:
@@ -240,6 +240,9 @@ def env_options(agent: PolicyAgent, video: bool, task: str, robot: str) -> dict:
     """Environment options a policy needs: its control rate, its cameras at its image size, and where it reads
     the task's state."""
     opts = {"state_includes_task": True} if _state_includes_task(agent, task, robot) else {}
+    acts = (agent.context.get("names") or {}).get("action") or []
+    if BASE_POSITION[0] in acts:  # trained with a free wrist (a tracker's): its actions place the base
+        opts["base_position"] = True
     if agent.context.get("fps"):
         opts["control_hz"] = float(agent.context["fps"])
     cams = [k.removeprefix("observation.images.") for k in agent.inputs if k.startswith("observation.images.")]

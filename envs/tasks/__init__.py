@@ -1,5 +1,5 @@
 """Tasks by name, from the task registry (envs/tasks/registry.py): ``pose`` (HandPose), ``grasp`` (HandGrasp),
-``pinch`` (HandPinch), ``keys`` (HandKeys) and ``turn`` (HandTurn) built in, more from plugins;
+``pinch`` (HandPinch), ``keys`` (HandKeys), ``turn`` (HandTurn) and ``relocate`` (HandRelocate, a free wrist) built in, more from plugins;
 ``make_task(name, robot)`` builds one."""
 
 from __future__ import annotations
@@ -9,6 +9,7 @@ from envs.tasks.hand_grasp import HandGraspConfig, HandGraspEnv
 from envs.tasks.hand_keys import HandKeysConfig, HandKeysEnv
 from envs.tasks.hand_pinch import HandPinchConfig, HandPinchEnv
 from envs.tasks.hand_pose import HandPoseConfig, HandPoseEnv
+from envs.tasks.hand_relocate import HandRelocateConfig, HandRelocateEnv
 from envs.tasks.hand_turn import HandTurnConfig, HandTurnEnv
 from envs.tasks.registry import TaskSpec, get_task, register_task, task_names
 
@@ -23,6 +24,8 @@ __all__ = [
     "HandPinchEnv",
     "HandPoseConfig",
     "HandPoseEnv",
+    "HandRelocateConfig",
+    "HandRelocateEnv",
     "HandTurnConfig",
     "HandTurnEnv",
     "TaskConfig",

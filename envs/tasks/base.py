@@ -9,7 +9,11 @@ than a kinematic parent gives the hand real velocities, so friction carries a he
 
 Action (float32): the actuators' position targets (ctrl ranges), then, with ``base_rotation``, the palm
 rotation as a rotation vector (rad, palm axes, relative to the task's nominal orientation, norm clipped to
-``max_base_angle_deg``). Out-of-range actions are clipped; ``info["applied_action"]`` is what was applied.
+``max_base_angle_deg``), then, with ``base_position`` (a free wrist: the wearer's from a tracker), the palm
+frame's position target (m, world, clipped to ``base_bounds``). With a free wrist the task no longer scripts the
+base: the episode starts at the script's first pose and the action moves it from there, and the palm rotation
+is relative to palm down (the world's axes), the orientation every task starts in. Out-of-range actions are
+clipped; ``info["applied_action"]`` is what was applied.
 
 Observation (dict):
 - ``observation.state``: hand joint positions, then velocities (``state_velocities``), then the palm
@@ -49,6 +53,7 @@ class TaskConfig:
     cameras: tuple[Literal["front", "top", "side"], ...] = ()  # empty: state only (fastest)
     image_size: tuple[Annotated[int, Positive], Annotated[int, Positive]] = (128, 128)  # (height, width)
     base_rotation: bool = True  # the action carries the palm rotation (3)
+    base_position: bool = False  # the action carries the palm position (3): the wrist from a tracker, not the script
     max_base_angle_deg: Annotated[float, Positive] = 75.0
     state_velocities: bool = True
     # LeRobot's layout: the task's state (goal or object) appended to observation.state and no
@@ -67,9 +72,18 @@ class TaskConfig:
         return 0.0
 
 
-def action_names(robot, base_rotation: bool = True) -> tuple[str, ...]:
-    """The names of a task's action elements for ``robot``: its actuators, then the palm rotation."""
-    return tuple(robot.actuator_names) + (("base.rx", "base.ry", "base.rz") if base_rotation else ())
+BASE_ROTATION = ("base.rx", "base.ry", "base.rz")
+BASE_POSITION = ("base.x", "base.y", "base.z")
+
+
+def action_names(robot, base_rotation: bool = True, base_position: bool = False) -> tuple[str, ...]:
+    """The names of a task's action elements for ``robot``: its actuators, then the palm rotation, then the palm
+    position (a free wrist)."""
+    return (
+        tuple(robot.actuator_names)
+        + (BASE_ROTATION if base_rotation else ())
+        + (BASE_POSITION if base_position else ())
+    )
 
 
 def _look_at(pos, target):
@@ -95,6 +109,7 @@ class HandEnv(gym.Env):
     workspace = (0.0, 0.0, 0.25)  # where the cameras look
     pivot = None  # the point (palm frame, m) the action's palm rotation turns the hand about; None: the palm origin
     view_distance_m = 0.75  # how far the live views' camera stands back (a small scene wants it closer)
+    reach_m = (0.25, 0.25, 0.25)  # a free wrist's bounds: the workspace ± this (x, y, z), the palm above the table
 
     def __init__(self, robot: str = "glovehand", render_mode: str | None = None, config=None, **overrides):
         self.config = config if config is not None else self.config_class.load(self.task_name, **overrides)
@@ -132,8 +147,12 @@ class HandEnv(gym.Env):
         amax = np.radians(cfg.max_base_angle_deg)
         if cfg.base_rotation:
             lo, hi = np.concatenate((lo, [-amax] * 3)), np.concatenate((hi, [amax] * 3))
+        ws, reach = np.array(self.workspace, float), np.array(self.reach_m, float)
+        self.base_bounds = (np.maximum(ws - reach, [-np.inf, -np.inf, 0.02]), ws + reach)
+        if cfg.base_position:
+            lo, hi = np.concatenate((lo, self.base_bounds[0])), np.concatenate((hi, self.base_bounds[1]))
         self.action_space = gym.spaces.Box(lo.astype(np.float32), hi.astype(np.float32), dtype=np.float32)
-        self.action_names = action_names(self.robot, cfg.base_rotation)
+        self.action_names = action_names(self.robot, cfg.base_rotation, cfg.base_position)
         self.state_names = (
             tuple(f"{n}.pos" for n in self.joint_names)
             + (tuple(f"{n}.vel" for n in self.joint_names) if cfg.state_velocities else ())
@@ -262,16 +281,21 @@ class HandEnv(gym.Env):
             raise ValueError(f"expected an action of shape {self.action_space.shape}, got {a.shape}")
         a = np.clip(np.nan_to_num(a), self.action_space.low, self.action_space.high)
         self.data.ctrl[:] = a[: self._nu]
-        if self.config.base_rotation:
-            rv = a[self._nu :]
+        cfg = self.config
+        if cfg.base_rotation:
+            r = slice(self._nu, self._nu + 3)
+            rv = a[r]
             angle = np.linalg.norm(rv)
-            amax = np.radians(self.config.max_base_angle_deg)
+            amax = np.radians(cfg.max_base_angle_deg)
             if angle > amax:
                 rv = rv * (amax / angle)
-                a[self._nu :] = rv
+                a[r] = rv
             self._base_rot = quat.from_rotvec(rv)
-        self.t = (self.steps + 1) / self.config.control_hz
-        pos, q = self._base_target(self.t)
+        self.t = (self.steps + 1) / cfg.control_hz
+        if cfg.base_position:  # the wearer's wrist: where the action puts it, palm down before the rotation
+            pos, q = a[len(a) - 3 :].copy(), quat.IDENTITY.copy()
+        else:
+            pos, q = self._base_target(self.t)
         turned = quat.mul(q, self._base_rot)
         if self.pivot is not None:  # the palm turns about the task's pivot, not about the palm frame's origin
             pos = pos + quat.rotate(q, self.pivot) - quat.rotate(turned, self.pivot)

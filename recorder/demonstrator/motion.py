@@ -31,13 +31,18 @@ class DemoMotion(SampledMotion):
     ):
         """times (k,) ascending s; poses (k, 20) rad: the hand is at poses[i] at times[i], holds before the
         first and after the last, and moves with minimum jerk in between (equal poses: a hold). palm_turns (k, 3)
-        rad: the palm's rotation vector (palm axes) at each keyframe, on the same minimum-jerk path (default 0)."""
+        rad: the palm's rotation vector (palm axes) at each keyframe, on the same minimum-jerk path (default 0).
+        palm_pos: the palm's position (m, world), (3,) for all the demonstration or (k, 3), one per keyframe on
+        that path: the wrist a free-wrist task's demonstrator moves (the wearer's reach)."""
         super().__init__(rate_hz)
         self.times = np.asarray(times, float)
         self.poses = clip(np.asarray(poses, float))
         if self.times.ndim != 1 or len(self.times) != len(self.poses) or np.any(np.diff(self.times) < 0):
             raise ValueError("keyframe times must be ascending, one per pose")
-        self.palm_pos = np.asarray(palm_pos, float)
+        pos = np.asarray(palm_pos, float)
+        self.palm_positions = np.tile(pos, (len(self.times), 1)) if pos.ndim == 1 else pos
+        if self.palm_positions.shape != (len(self.times), 3):
+            raise ValueError("palm positions must be one per keyframe")
         self.palm_turns = np.zeros((len(self.times), 3)) if palm_turns is None else np.asarray(palm_turns, float)
         if self.palm_turns.shape != (len(self.times), 3):
             raise ValueError("palm turns must be one rotation vector per keyframe")
@@ -61,21 +66,25 @@ class DemoMotion(SampledMotion):
         """The keyframe path alone (no wander or tremor), (n, 20) rad."""
         return self._keyframes(t, self.poses)
 
-    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0)) -> bool:
+    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0), move=(0.0, 0.0, 0.0)) -> bool:
         """A correction while demonstrating: from ``at_s`` on, spend ``duration_s`` turning the palm by
-        ``palm_delta`` (a rotation vector, palm axes; zeros: a pause), then go on with the rest of the plan that much
-        later (and turned by that much). ``at_s`` must fall in a hold (between two equal keyframes): the path
+        ``palm_delta`` (a rotation vector, palm axes; zeros: a pause) and moving it by ``move`` (m, world), then go
+        on with the rest of the plan that much later (and turned and moved by that much). ``at_s`` must fall in a hold (between two equal keyframes): the path
         before it is unchanged, so samples already taken stay valid. Returns True (done)."""
         at_s = float(at_s)
         k = int(np.searchsorted(self.times, at_s, side="right"))
         if 0 < k < len(self.times) and not (
-            np.allclose(self.poses[k - 1], self.poses[k]) and np.allclose(self.palm_turns[k - 1], self.palm_turns[k])
+            np.allclose(self.poses[k - 1], self.poses[k])
+            and np.allclose(self.palm_turns[k - 1], self.palm_turns[k])
+            and np.allclose(self.palm_positions[k - 1], self.palm_positions[k])
         ):
             raise ValueError(f"a correction at {at_s:.2f} s falls inside a move, not a hold")
         delta = np.asarray(palm_delta, float)
         pose, turn = self.keyframe_angles([at_s])[0], self._keyframes([at_s], self.palm_turns)[0]
         self.times = np.concatenate((self.times[:k], [at_s, at_s + duration_s], self.times[k:] + duration_s))
         self.poses = np.concatenate((self.poses[:k], [pose, pose], self.poses[k:]))
+        at, move = self._keyframes([at_s], self.palm_positions)[0], np.asarray(move, float)
+        self.palm_positions = np.concatenate((self.palm_positions[:k], [at, at + move], self.palm_positions[k:] + move))
         self.palm_turns = np.concatenate((self.palm_turns[:k], [turn, turn + delta], self.palm_turns[k:] + delta))
         return True
 
@@ -92,4 +101,4 @@ class DemoMotion(SampledMotion):
     def at(self, t) -> MotionBlock:
         t = np.atleast_1d(np.asarray(t, float))
         palm_quat = quat.mul(quat.from_rotvec(self._keyframes(t, self.palm_turns)), quat.from_rotvec(self._palm(t)))
-        return MotionBlock(t, self.angles(t), palm_quat, np.tile(self.palm_pos, (len(t), 1)))
+        return MotionBlock(t, self.angles(t), palm_quat, self._keyframes(t, self.palm_positions))

@@ -5,7 +5,9 @@
 ``via="direct"``: the demonstrator's joint angles and palm orientation go straight to the retargeter.
 ``via="glove"``: they drive a SyntheticGlove; its pose output (parent-relative quaternions with orientation
 noise) is turned back into joint angles as a host would (kinematics.joint_angles_from_relative; palm =
-quats[0]) and read ``latency_s`` late. Prints one JSON object: success rate and per-episode details.
+quats[0]) and read ``latency_s`` late. ``via="glove+marker"`` (a free-wrist task): the same glove, and the wrist
+from an emulated webcam filming the glove's marker (recorder/wrist/emulated.py) fused with the glove's palm
+(recorder/wrist/fusion.py). Prints one JSON object: success rate and per-episode details.
 """
 
 from __future__ import annotations
@@ -22,6 +24,8 @@ from recorder.emulator.glove import SyntheticGlove
 from recorder.hand.kinematics import joint_angles_from_relative
 from recorder.retarget import MODES, Retargeter
 
+VIA = ("direct", "glove", "glove+marker")
+
 
 class _GloveReader:
     """The demonstration as a glove host sees it: noisy pose frames at the glove rate, ``latency_s`` late, synthesised
@@ -32,6 +36,7 @@ class _GloveReader:
         self.glove = SyntheticGlove(motion, rate_hz=self.rate, seed=seed, pose_noise_deg=noise_deg)
         self.angles, self.palm = np.zeros((0, 20)), np.zeros((0, 4))
         self.latency = latency_s
+        self.motion = motion
 
     def __call__(self, t: float):
         i = max(int(np.floor((t - self.latency) * self.rate + 1e-9)), 0)
@@ -39,7 +44,41 @@ class _GloveReader:
             block = self.glove.next_block(i + 1 - len(self.angles))
             self.angles = np.concatenate((self.angles, joint_angles_from_relative(block.pose.astype(float))))
             self.palm = np.concatenate((self.palm, block.pose[:, 0].astype(float)))
-        return self.angles[i], self.palm[i]
+        return self.angles[i], self.palm[i], self.motion.at([i / self.rate]).palm_pos[0]
+
+
+class _TrackedWrist:
+    """The glove reader's hand, with the wrist a webcam tracks: frames of the demonstration's true palm pose at the
+    camera's rate, rendered and tracked, each usable ``latency_s`` after its capture, fused with the glove's palm."""
+
+    def __init__(self, glove: _GloveReader, motion, camera, start):
+        from recorder.wrist.fusion import FusionConfig, WristFusion
+
+        self.glove, self.motion, self.camera = glove, motion, camera
+        self.fusion = WristFusion(FusionConfig(latency_s=camera.latency_s))
+        self.next_frame = 0
+        self.lost = 0
+        angles, palm, _ = glove(0.0)
+        self.fusion.imu(0.0, palm)
+        self._frame()  # the zero: the wearer holds still in the start pose, the first frame is waited for
+        if not self.fusion.zero(0.0, start):
+            raise RuntimeError("the emulated camera cannot see the marker at the start pose")
+
+    def _frame(self):
+        t = self.next_frame / self.camera.fps
+        b = self.motion.at([t])
+        pose, _ = self.camera.capture(t, b.palm_pos[0], b.palm_quat[0])
+        self.fusion.tracker(pose)
+        self.next_frame += 1
+
+    def __call__(self, t: float):
+        angles, palm, _ = self.glove(t)
+        self.fusion.imu(t - self.glove.latency, palm)
+        while self.next_frame / self.camera.fps + self.camera.latency_s <= t + 1e-9:
+            self._frame()
+        fused = self.fusion.pose(t)
+        self.lost += not fused.tracked
+        return angles, fused.quat, fused.position
 
 
 def run_episode(
@@ -51,6 +90,7 @@ def run_episode(
     noise_deg: float = 0.5,
     demonstrator=None,
     on_step=None,
+    camera=None,
 ) -> dict:
     """One demonstration on ``env`` (reset with ``seed``); returns success, steps and retarget error."""
     obs, info = env.reset(seed=seed)
@@ -60,18 +100,24 @@ def run_episode(
     retargeter.reset()
     if via == "glove":
         read = _GloveReader(motion, seed, latency_s, noise_deg)
+    elif via == "glove+marker":
+        if camera is None:
+            from recorder.wrist.emulated import EmulatedCamera
+
+            camera = EmulatedCamera()
+        read = _TrackedWrist(_GloveReader(motion, seed, latency_s, noise_deg), motion, camera, u.palm_pose()[0])
     elif via == "direct":
 
         def read(t):
             b = motion.at([t])
-            return b.angles[0], b.palm_quat[0]
+            return b.angles[0], b.palm_quat[0], b.palm_pos[0]
     else:
-        raise ValueError(f"unknown via {via!r}; valid: direct, glove")
+        raise ValueError(f"unknown via {via!r}; valid: {', '.join(VIA)}")
     errors = []
     steps = 0
     while True:
-        angles, palm = read(u.t)
-        action, rinfo = retargeter(angles, palm)
+        angles, palm, palm_pos = read(u.t)
+        action, rinfo = retargeter(angles, palm, palm_pos)
         errors.append(rinfo["tip_error_mean"])
         obs, reward, terminated, truncated, info = env.step(action)
         motion.watch(u)
@@ -85,6 +131,7 @@ def run_episode(
         "success": bool(info["is_success"]),
         "steps": steps,
         "tip_error_mm": round(1000 * float(np.mean(errors)), 2),
+        **({"wrist_untracked_steps": read.lost} if isinstance(read, _TrackedWrist) else {}),
         **{k: info[k] for k in ("goal", "object") if k in info},
     }
 
@@ -96,8 +143,15 @@ def success_rate(
     env = envs.make(task, robot, **env_kwargs)
     r = Retargeter.for_env(env, mode)
     t0 = time.perf_counter()
-    runs = [run_episode(env, r, seed0 + k, via) for k in range(episodes)]
+    camera = None
+    if via == "glove+marker":
+        from recorder.wrist.emulated import EmulatedCamera
+
+        camera = EmulatedCamera()
+    runs = [run_episode(env, r, seed0 + k, via, camera=camera) for k in range(episodes)]
     env.close()
+    if camera is not None:
+        camera.close()
     ok = sum(r["success"] for r in runs)
     return {
         "task": task,
@@ -118,7 +172,7 @@ def main(argv=None) -> None:
     p.add_argument("--task", default="pose")
     p.add_argument("--robot", default="glovehand")
     p.add_argument("--episodes", type=int, default=20)
-    p.add_argument("--via", choices=("direct", "glove"), default="direct")
+    p.add_argument("--via", choices=VIA, default="direct")
     p.add_argument("--mode", choices=MODES, default="joint")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--brief", action="store_true", help="leave out the per-episode runs")

@@ -29,14 +29,16 @@ class SessionMotion(DemoMotion):
         with self._lock:
             here = self.keyframe_angles([t_from])[0]
             turn = self._keyframes([t_from], self.palm_turns)[0]
+            pos = self._keyframes([t_from], self.palm_positions)[0]
             keep = self.times < t_from
             self.times = np.concatenate((self.times[keep], [t_from], start_s + demo.times))
             self.poses = np.concatenate((self.poses[keep], [here], demo.poses))
             self.palm_turns = np.concatenate((self.palm_turns[keep], [turn], demo.palm_turns))
+            self.palm_positions = np.concatenate((self.palm_positions[keep], [pos], demo.palm_positions))
 
-    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0)) -> bool:
+    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0), move=(0.0, 0.0, 0.0)) -> bool:
         with self._lock:
-            return super().revise(at_s, duration_s, palm_delta)
+            return super().revise(at_s, duration_s, palm_delta, move)
 
     def next_block(self, n: int):
         with self._lock:

@@ -15,6 +15,7 @@ from recorder.config import STRICT, NonNegative, Positive, setting
 from recorder.glove.config import GloveConfig
 from recorder.paths import recordings_dir
 from recorder.view.process import ViewSpec
+from recorder.wrist.config import SCRIPTED, WristConfig
 
 REPO_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*/[A-Za-z0-9][A-Za-z0-9._-]*$")
 CAMERAS = ("front", "top", "side")
@@ -32,6 +33,11 @@ RepoId = Annotated[str, AfterValidator(repo_id)]
 
 def _view(text: str) -> str:
     ViewSpec.parse(text)  # ConfigError (a ValueError) names what is valid
+    return text
+
+
+def _wrist(text: str) -> str:
+    WristConfig.parse(text)  # ConfigError names what is valid
     return text
 
 
@@ -77,6 +83,18 @@ class RecordConfig:
         "whose hand: the hand profile saved by `gloverec calibrate --wearer NAME` (default: a 190 mm hand)",
         metavar="NAME",
     )
+    wrist: Annotated[str, AfterValidator(_wrist)] = setting(
+        "scripted",
+        "where the wrist is: scripted (the task's script; a free-wrist task's demonstrator), udp:PORT (a tracker's "
+        "pose stream), marker:CAMERA (a marker on the glove seen by a camera: index, video file or URL; "
+        "marker:emulated renders the emulated wearer's); a tracker puts the base position in the action",
+        metavar="SOURCE",
+        check=WristConfig.parse,
+    )
+    wrist_camera: str | None = setting(
+        None, "the marker camera's calibration (default: the one `gloverec calibrate --camera` saved)", metavar="FILE"
+    )
+    marker_mm: Annotated[float, Positive] = setting(40.0, "the marker's printed side, mm")
     seed: int = setting(0, "episode k of a session resets the environment with seed + k")
     log: bool = setting(True, "no raw MCAP log of the session beside the dataset", flag="--no-log")
     task_text: str | None = setting(None, "the task string stored with every frame (default: the task's)")
@@ -97,6 +115,10 @@ class RecordConfig:
     def glove_config(self) -> GloveConfig:
         """The glove, its emulated wearer seeded with the session's seed."""
         return GloveConfig.parse(self.glove, seed=self.seed)
+
+    @property
+    def wrist_config(self) -> WristConfig:
+        return WristConfig.parse(self.wrist)
 
     @property
     def is_fast(self) -> bool:
@@ -123,6 +145,8 @@ class RecordConfig:
     def task_options(self) -> dict:
         """The task's settings this recording gives (the rest are the task's defaults)."""
         options = {"control_hz": float(self.fps), "cameras": tuple(self.cameras), "image_size": tuple(self.image_size)}
+        if self.wrist_config.kind != SCRIPTED:
+            options["base_position"] = True  # a tracked wrist: the wearer places the base
         if self.episode_time_s:
             options["episode_s"] = float(self.episode_time_s)
         return options

@@ -31,6 +31,7 @@ class Row:
     host_s: float
     device_s: float
     task: str
+    wrist: object = None  # a free wrist's FusedWrist (recorder/wrist/fusion.py); None: the task scripts the base
 
 
 @dataclass(frozen=True)
@@ -119,6 +120,27 @@ class DatasetSchema:
                 "float64",
             ),
         ]
+        if env.config.base_position:
+            self.features += [
+                Feature(
+                    "observation.wrist",
+                    ("wrist.x", "wrist.y", "wrist.z", "wrist.qw", "wrist.qx", "wrist.qy", "wrist.qz"),
+                    lambda r: np.concatenate((r.wrist.position, r.wrist.quat)).astype(np.float32),
+                    "the wearer's palm in the robot's world, tracked and fused (before the workspace bounds)",
+                ),
+                Feature(
+                    "quality.wrist_tracked",
+                    ("wrist_tracked",),
+                    lambda r: _scalar(float(r.wrist.tracked)),
+                    "1: the tracker saw the wrist; 0: held (marker lost) or catching up after it",
+                ),
+                Feature(
+                    "quality.wrist_age_ms",
+                    ("wrist_age_ms",),
+                    lambda r: _scalar(r.wrist.age_s * 1e3),
+                    "since the tracker's newest pose was captured",
+                ),
+            ]
         h, w = env.config.image_size
         self.images = {f"observation.images.{cam}": (h, w, 3) for cam in env.config.cameras}
         self.use_videos = use_videos

@@ -34,6 +34,10 @@ from recorder.record.live import LiveView
 from recorder.record.store import EpisodeStore
 from recorder.record.writer import EpisodeWriter
 from recorder.retarget import Retargeter
+from recorder.wrist import open_wrist
+from recorder.wrist.config import SCRIPTED
+from recorder.wrist.fusion import FusedWrist, FusionConfig
+from recorder.wrist.track import EmulatedMarker, WristTrack
 
 FIRST_SAMPLE_TIMEOUT_S = 5.0
 NO_POSE_S = 30.0  # the reset period waits this long for the glove's first hand pose, saying what for
@@ -53,6 +57,7 @@ class EpisodeStats:
     jitter_s: list = field(default_factory=list)
     latency_s: list = field(default_factory=list)
     retarget_mm: list = field(default_factory=list)
+    wrist_lost: int = 0  # frames whose wrist the tracker did not see (held, or catching up)
 
     def counted(self, now: dict) -> dict:
         """The link's counters over the episode so far."""
@@ -73,6 +78,7 @@ class EpisodeStats:
             "latency_ms_p50": pct(self.latency_s, 50),
             "latency_ms_p99": pct(self.latency_s, 99),
             "retarget_error_mm_mean": round(float(np.mean(self.retarget_mm)), 3) if self.retarget_mm else None,
+            "wrist_untracked": self.wrist_lost,
         }
 
 
@@ -99,12 +105,16 @@ class Recorder:
         except ValueError as exc:
             raise GloverecError(str(exc)) from None
         self.u = self.env.unwrapped
-        self.retarget = Retargeter(
-            cfg.robot, cfg.retarget, base_rotation=self.u.config.base_rotation, hand_size=self.profile.size()
-        )
+        self.retarget = Retargeter.for_env(self.env, cfg.retarget, hand_size=self.profile.size())
         glove = cfg.glove_config
         scripted = glove.kind == "emulator" and (glove.motion or "demonstrations") == "demonstrations"
         self.demonstrator = make_demonstrator(cfg.task) if scripted else None
+        wrist = cfg.wrist_config
+        if self.u.config.base_position and wrist.kind == SCRIPTED and self.demonstrator is None:
+            raise GloverecError(f"the {cfg.task} task needs a tracked wrist: --wrist udp:PORT or marker:CAMERA "
+                                "(only the emulator's demonstrator moves a scripted one)")  # fmt: skip
+        if wrist.kind == "marker" and wrist.camera == "emulated" and self.demonstrator is None:
+            raise GloverecError("--wrist marker:emulated films the emulated wearer: record with --glove emulator")
         self.demo = None  # the demonstration being performed (its plan)
         self.schema = DatasetSchema(self.u, use_videos=bool(cfg.cameras))
         self.store = EpisodeStore(
@@ -130,6 +140,7 @@ class Recorder:
         self.clock = clock_for(cfg.is_fast, self.glove, cfg.fps, cfg.glove.rate_hz)
         self.glove.fusion.keep_in(self.store.work, self._say)  # meta/gloverec/calibration.json, before any episode
         write_profile(self.store.work, self.profile)  # meta/gloverec/hand_profile.json: whose hand it was
+        self.wrist = self._open_wrist()
         self.logger = None
         self.log_rel = None
         if cfg.log:
@@ -141,6 +152,24 @@ class Recorder:
         )
         self.period = 1.0 / cfg.fps
         self._last_line = 0.0
+
+    def _open_wrist(self) -> WristTrack | None:
+        """The tracked wrist (None: the task's script, or a free-wrist task's demonstrator, moves the base)."""
+        wrist = self.cfg.wrist_config
+        if wrist.kind == SCRIPTED:
+            return None
+        if wrist.kind == "marker" and wrist.camera == "emulated":
+            source = EmulatedMarker(self._demo_palm)
+            fusion = FusionConfig(latency_s=source.camera.latency_s)
+        else:
+            source = open_wrist(wrist, self.cfg.wrist_camera, self.cfg.marker_mm, paced=not self.cfg.is_fast)
+            fusion = FusionConfig()
+        return WristTrack(source, fusion).open()
+
+    def _demo_palm(self, t: float):
+        """The emulated wearer's palm (position, quat) in the robot's world at glove time ``t``: the demonstration's."""
+        b = self.demo.at([t - self._episode_start])
+        return b.palm_pos[0], b.palm_quat[0]
 
     def _open_log(self) -> None:
         logs = self.store.work / "logs"
@@ -238,6 +267,8 @@ class Recorder:
             self.logger.close()
         self.live.close()
         self.control.close()
+        if self.wrist is not None:
+            self.wrist.close()
         self.env.close()
 
     # ------------------------------------------------------------ one episode
@@ -331,6 +362,9 @@ class Recorder:
         stats = EpisodeStats(g.counters())
         n_max = frames or int(round(self.u.config.episode_s * self.cfg.fps))
         clock.start(start)
+        self._episode_start = start
+        if self.wrist is not None:
+            self._zero_wrist(start)
         device_start, success, stop_after, host_tick = None, False, False, None
         for k in range(n_max):
             tick = start + k * self.period
@@ -342,7 +376,8 @@ class Recorder:
                 return self._lost(index)
             device_time = clock.device_time(at, clock.pose_time(tick))
             device_start = device_time if device_start is None else device_start
-            obs, info, done = self._frame(index, k, n_max, obs, at, host_tick, device_time, stats)
+            obs, info, done = self._frame(index, k, n_max, obs, at, host_tick, device_time, stats,
+                                          clock.pose_time(tick))  # fmt: skip
             success = bool(info["is_success"])
             self._status_line(index, k, n_max, stats)
             what = self.control.take()
@@ -365,17 +400,47 @@ class Recorder:
             result["stop"] = True
         return "saved", result
 
-    def _frame(self, index, k, n_max, obs, at, host_tick, device_time, stats):
+    def _zero_wrist(self, start: float) -> None:
+        """The episode starts with the wearer's palm in the nominal pose: the tracker's mapping is set on it."""
+        g = self.glove
+
+        def wait() -> float:
+            g.poll(timeout=0.02)
+            self.clock.advance()
+            return g.now()
+
+        at = g.track.at(self.clock.pose_time(start))
+        palm = at.pose.palm if at is not None else None
+        if palm is None:
+            raise GloverecError(f"no hand pose from {g.name} to start the wrist's tracking on")
+        self.wrist.zero(self.clock.pose_time(start), self.u.palm_pose()[0], palm, wait)
+
+    def _wrist(self, t: float, palm) -> FusedWrist | None:
+        """The palm's pose in the robot's world at glove time ``t`` for a free-wrist task: tracked and fused with the
+        glove's ``palm``, or the emulated wearer's (a demonstrator's scripted wrist); None: the task scripts it."""
+        if self.wrist is not None:
+            self.wrist.update(t, palm)
+            return self.wrist.pose(t)
+        if self.u.config.base_position:
+            pos, _ = self._demo_palm(t)
+            return FusedWrist(pos, np.asarray(palm, float), True, 0.0)
+        return None
+
+    def _frame(self, index, k, n_max, obs, at, host_tick, device_time, stats, t_pose):
         """One dataset frame: the glove's pose retargeted, the env stepped, the observation before the step and
         the applied action stored. Returns (the next observation, the step's info, whether the task ended)."""
         stats.held += at.held
-        action, rinfo = self.retarget(at.pose.angles, at.pose.palm)
+        wrist = self._wrist(t_pose, at.pose.palm)
+        if wrist is not None:
+            stats.wrist_lost += not wrist.tracked
+        palm = at.pose.palm if wrist is None else wrist.quat
+        action, rinfo = self.retarget(at.pose.angles, palm, None if wrist is None else wrist.position)
         latency = self.clock.latency(at)
         nxt, _, terminated, truncated, info = self.env.step(action)
         if self.demo is not None:
             self.demo.watch(self.u, into=self.glove)  # a demonstrator that watches corrects what is still ahead
         row = Row(obs, info["applied_action"], at.pose, latency, at.age_s, rinfo["tip_error_mean"], host_tick,
-                  device_time, self.task_text)  # fmt: skip
+                  device_time, self.task_text, wrist)  # fmt: skip
         self.live.recording(index, k, n_max, stats)
         self.store.add_frame(self.schema.frame(row))
         stats.frames += 1

@@ -13,7 +13,9 @@ fingers (no pinky) takes the thumb and the fingers it has.
 
 The palm orientation becomes a rotation vector (3, rad): the palm's rotation since the first frame after
 ``reset()`` in the palm's own axes (``palm_reference="first"``; any glove heading works), or its absolute
-orientation in the glove's world (``"absolute"``). Environments apply it to their hand base.
+orientation in the glove's world (``"absolute"``). Environments apply it to their hand base. With
+``base_position`` (a free wrist) the palm's position target (3, m, the robot's world: recorder/wrist/mapping.py
+maps a tracker's) follows it.
 """
 
 from __future__ import annotations
@@ -36,8 +38,8 @@ PALM_REFERENCES = ("first", "absolute")
 
 
 class Retargeter:
-    """``action, info = retargeter(angles, palm_quat)``. action: float32 (nu,) actuator targets, followed by
-    the palm rotation vector (3,) when ``base_rotation``. info: tip_error (n,) m per robot finger, thumb first
+    """``action, info = retargeter(angles, palm_quat, palm_pos)``. action: float32 (nu,) actuator targets, followed
+    by the palm rotation vector (3,) when ``base_rotation`` and the palm position (3,) when ``base_position``. info: tip_error (n,) m per robot finger, thumb first
     (robot fingertip vs scaled human fingertip, palm frame), tip_error_mean, ik_iterations, joint_targets (nu,),
     qpos (the robot's joint positions at the targets)."""
 
@@ -46,7 +48,7 @@ class Retargeter:
         """The retargeter whose actions ``env`` (a gloverec task) takes: its robot, with the palm rotation where
         the task turns its base (HandKeys' does not)."""
         u = env.unwrapped
-        return cls(u.robot, mode, base_rotation=u.config.base_rotation, **kw)
+        return cls(u.robot, mode, base_rotation=u.config.base_rotation, base_position=u.config.base_position, **kw)
 
     def __init__(
         self,
@@ -54,6 +56,7 @@ class Retargeter:
         mode: str = "joint",
         *,
         base_rotation: bool = True,
+        base_position: bool = False,
         palm_reference: str = "first",
         hand_size: HandSize = HandSize(),
     ):
@@ -64,6 +67,7 @@ class Retargeter:
         self.robot = robot if isinstance(robot, Robot) else load_robot(robot)
         self.mode = mode
         self.base_rotation = base_rotation
+        self.base_position = base_position
         self.palm_reference = palm_reference
         self.hand_size = hand_size
         self.human = HumanHandFK(hand_size)
@@ -81,7 +85,7 @@ class Retargeter:
         self.model = m = spec.compile()
         self.data = mujoco.MjData(m)
         self.nu = m.nu
-        self.action_dim = m.nu + (3 if base_rotation else 0)
+        self.action_dim = m.nu + (3 if base_rotation else 0) + (3 if base_position else 0)
         self._act_qpos = m.jnt_qposadr[m.actuator_trnid[:, 0]]
         act_dof = m.jnt_dofadr[m.actuator_trnid[:, 0]]
         self._tip_ids = self.robot.tip_site_ids
@@ -153,7 +157,7 @@ class Retargeter:
         return quat.to_rotvec(quat.mul(quat.conj(self._palm_ref), q))
 
     # ------------------------------------------------------------ the call
-    def __call__(self, angles, palm_quat=None) -> tuple[np.ndarray, dict]:
+    def __call__(self, angles, palm_quat=None, palm_pos=None) -> tuple[np.ndarray, dict]:
         angles = np.asarray(angles, float)
         if angles.shape != (N_JOINTS,):
             raise ValueError(f"expected {N_JOINTS} joint angles, got shape {angles.shape}")
@@ -172,6 +176,10 @@ class Retargeter:
         if self.base_rotation:
             rv = np.zeros(3) if palm_quat is None else self.palm_rotvec(palm_quat)
             action = np.concatenate((ctrl, rv))
+        if self.base_position:
+            if palm_pos is None:
+                raise ValueError("a free-wrist retargeter needs the palm position (a wrist source's)")
+            action = np.concatenate((action, np.asarray(palm_pos, float).reshape(3)))
         info = {
             "tip_error": err,
             "tip_error_mean": float(err.mean()),

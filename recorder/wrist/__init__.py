@@ -8,10 +8,11 @@ from recorder import GloverecError
 from recorder.wrist.config import SCRIPTED, WristConfig
 
 
-def open_wrist(spec, camera_file: str | None = None, marker_mm: float = 40.0):
+def open_wrist(spec, camera_file: str | None = None, marker_mm: float = 40.0, paced: bool = True):
     """The unopened source ``spec`` names (a context manager: ``with open_wrist("udp:9100") as w: w.take()``);
     a marker source needs its camera's calibration (``camera_file``, JSON: recorder/wrist/marker.py CameraModel;
-    default: the one `gloverec calibrate --camera CAMERA` saved) and the marker's size."""
+    default: the one `gloverec calibrate --camera CAMERA` saved) and the marker's size; ``paced``: a video file
+    plays at its frame rate (False: as fast as it decodes, stamped with video time)."""
     config = WristConfig.parse(spec)
     if config.kind == SCRIPTED:
         raise GloverecError("the scripted wrist is the task's: there is no tracker to open (pass udp:PORT)")
@@ -27,7 +28,7 @@ def open_wrist(spec, camera_file: str | None = None, marker_mm: float = 40.0):
             if not camera_file.exists():
                 raise GloverecError(f"{config} needs its camera's calibration: run gloverec calibrate --camera "
                                     f"{config.camera}, or pass --camera FILE.json")  # fmt: skip
-        return MarkerWrist(config.camera, CameraModel.load(camera_file), MarkerSpec(size_m=marker_mm / 1000.0))
+        return MarkerWrist(config.camera, CameraModel.load(camera_file), MarkerSpec(size_m=marker_mm / 1000.0), paced)
     from recorder.wrist.udp import UdpWrist
 
     return UdpWrist(config.host, config.port)

@@ -2,11 +2,14 @@
 (``cv2.VideoCapture``: a device index, a video file or a stream URL), tracks the marker in each
 (recorder/wrist/marker.py) and queues a WristPose per frame: ``t`` is when the frame was read, so the latency
 reported is the tracking's; a frame without the marker repeats the last pose with ``tracked`` false. A video file
-plays at its own frame rate, as a camera would deliver it, and the source is ``finished`` at its end."""
+plays at its own frame rate, as a camera would deliver it, and the source is ``finished`` at its end; unpaced
+(``paced=False``: a recording faster than real time) it is read as fast as it decodes and each pose's ``t`` is its
+frame's time in the video."""
 
 from __future__ import annotations
 
 import time
+from collections import deque
 
 import numpy as np
 
@@ -17,8 +20,9 @@ from recorder.wrist.marker import CameraModel, MarkerSpec, MarkerTracker
 
 
 class MarkerWrist(WristSource):
-    def __init__(self, camera: str, model: CameraModel, marker: MarkerSpec | None = None):
+    def __init__(self, camera: str, model: CameraModel, marker: MarkerSpec | None = None, paced: bool = True):
         super().__init__()
+        self.paced = paced
         self.address = camera
         self.name = f"marker:{camera}"
         self.model, self.marker = model, marker or MarkerSpec()
@@ -44,21 +48,24 @@ class MarkerWrist(WristSource):
         self._capture = capture
         fps = capture.get(cv2.CAP_PROP_FPS)
         self._period = 1.0 / fps if not isinstance(source, int) and fps and fps > 0 else 0.0
+        self.video_clock = bool(self._period) and not self.paced
+        if self.video_clock:
+            self._queue = deque()  # all of the file's poses wait for the loop (a few hundred bytes each)
         return (first,)
 
     def _run(self, frame) -> None:
         tracker = MarkerTracker(self.marker, self.model)
         last, start = None, time.monotonic()
         while frame is not None and not self._stop.is_set():
-            read_at = time.time()
+            read_at = self.frames * self._period if self.video_clock else time.time()
             found = tracker.track(frame[..., ::-1])  # OpenCV's BGR
             if found is not None:
-                last = (found.position, found.quat)
+                last = (found.position, found.quat, found.alternative)
             if last is not None:
                 self._queue.append((WristPose(self.frames, read_at, np.array(last[0]), np.array(last[1]),
-                                              found is not None), time.time()))  # fmt: skip
+                                              found is not None, last[2]), time.time()))  # fmt: skip
             self.frames += 1
-            if self._period:  # a file plays at its frame rate
+            if self._period and not self.video_clock:  # a file plays at its frame rate
                 time.sleep(max(0.0, start + self.frames * self._period - time.monotonic()))
             ok, frame = self._capture.read()
             frame = frame if ok else None

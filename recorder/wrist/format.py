@@ -43,13 +43,15 @@ class WristFormatError(GloverecError):
 @dataclass(frozen=True)
 class WristPose:
     """One tracked wrist pose: ``seq``, ``t`` (sender's clock, s), ``position`` (3, m), ``quat`` (4, wxyz, unit),
-    ``tracked``."""
+    ``tracked``; a marker's also ``alternative``, the other pose its square's image allows ((position, quat), not
+    sent over UDP: recorder/wrist/fusion.py picks between the two)."""
 
     seq: int
     t: float
     position: np.ndarray
     quat: np.ndarray
     tracked: bool = True
+    alternative: tuple | None = None
 
 
 def encode_json(pose: WristPose) -> bytes:

@@ -1,0 +1,134 @@
+"""WristTrack: the recording loop's wrist. It brings a wrist source's poses onto the loop's clock, fuses them with
+the glove's palm orientation (recorder/wrist/fusion.py) and answers, at each frame, where the palm is in the
+robot's world and whether the tracker saw it.
+
+Clocks. A live tracker stamps its poses in Unix time (a camera source: when the frame was read); a pose's time
+on the loop's clock is the frame's time less the pose's age, so latency is kept. A video file read faster than
+real time (`gloverec record --fast`) stamps frames by their place in the video, and video time 0 is the glove
+time of the first frame the loop asks for. ``EmulatedMarker`` renders an emulated wearer's marker (a scripted
+demonstration's palm pose) on the loop's own clock: the whole camera path with no webcam.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from dataclasses import replace
+
+import numpy as np
+
+from recorder import GloverecError
+from recorder.wrist.fusion import FusedWrist, FusionConfig, WristFusion
+
+FIRST_POSE_S = 5.0  # an episode waits this long for a tracked pose to zero on
+
+
+class EmulatedMarker:
+    """A source that renders what a webcam would film of ``truth(t)`` (the palm's (position, quat) in W at the
+    loop's time t) at the camera's rate, each frame usable ``latency_s`` after its capture."""
+
+    name = "marker:emulated"
+    finished = False
+    bad = late = 0
+
+    def __init__(self, truth, camera=None):
+        from recorder.wrist.emulated import EmulatedCamera
+
+        self.truth = truth
+        self.camera = camera or EmulatedCamera()
+        self.next_t = None
+
+    def open(self):
+        return self
+
+    def until(self, t: float) -> list:
+        """The frames captured up to ``t - latency``, as (pose on the loop's clock) in order."""
+        c = self.camera
+        self.next_t = t if self.next_t is None else self.next_t
+        out = []
+        while self.next_t + c.latency_s <= t + 1e-9:
+            pose, _ = c.capture(self.next_t, *self.truth(self.next_t))
+            out.append(pose)
+            self.next_t += 1.0 / c.fps
+        return out
+
+    def close(self) -> None:
+        self.camera.close()
+
+
+class WristTrack:
+    def __init__(self, source, config: FusionConfig = FusionConfig()):
+        self.source = source
+        self.fusion = WristFusion(config)
+        self._pending: deque = deque()
+        self._t0 = None
+        self.latency_s: list = []  # tracker stamp -> arrival, per live pose
+
+    @property
+    def video_clock(self) -> bool:
+        """The source stamps poses with video time (a file read faster than real time; known once open)."""
+        return bool(getattr(self.source, "video_clock", False))
+
+    @property
+    def name(self) -> str:
+        return self.source.name
+
+    def open(self) -> WristTrack:
+        self.source.open()
+        return self
+
+    def close(self) -> None:
+        self.source.close()
+
+    def update(self, t: float, palm_quat) -> None:
+        """The glove's palm orientation at loop time ``t``, and the tracker's poses up to ``t``."""
+        self.fusion.imu(t, palm_quat)
+        if isinstance(self.source, EmulatedMarker):
+            self._pending.extend(self.source.until(t))
+        else:
+            self._t0 = t if self._t0 is None else self._t0
+            if self.video_clock:  # a file read faster than real time: wait for its frames to come up to t
+                deadline = time.monotonic() + 1.0
+                while not self.source.finished and self._behind(t) and time.monotonic() < deadline:
+                    self._take(t)
+                    time.sleep(0.001)
+            self._take(t)
+        while self._pending and self._pending[0].t <= t + 1e-9:
+            self.fusion.tracker(self._pending.popleft())
+
+    def _behind(self, t: float) -> bool:
+        return not self._pending or self._pending[-1].t < t
+
+    def _take(self, t: float) -> None:
+        now = time.time()
+        for pose, arrival in self.source.take():
+            if self.video_clock:
+                self._pending.append(replace(pose, t=self._t0 + pose.t))
+            else:
+                self.latency_s.append(arrival - pose.t)
+                self._pending.append(replace(pose, t=t - (now - pose.t)))
+
+    def zero(self, t: float, start, palm_quat, wait=None) -> None:
+        """Zero the mapping at loop time ``t`` (the palm in the nominal pose at the robot's ``start``); without a
+        tracked pose yet, call ``wait()`` (which moves the loop's time on and returns it) for up to FIRST_POSE_S,
+        then one-line GloverecError."""
+        deadline = time.monotonic() + FIRST_POSE_S
+        self.update(t, palm_quat)
+        while not self.fusion.zero(t, start):
+            if wait is None or time.monotonic() > deadline or getattr(self.source, "finished", False):
+                raise GloverecError(
+                    f"no tracked wrist pose from {self.name} to start the episode on: is the marker in view?"
+                )
+            t = wait()
+            self.update(t, palm_quat)
+
+    def pose(self, t: float) -> FusedWrist:
+        return self.fusion.pose(t)
+
+    def summary(self) -> dict:
+        lat = self.latency_s
+        return {
+            "wrist": self.name,
+            "wrist_flips": self.fusion.flips,
+            "wrist_latency_ms_p50": round(float(np.percentile(lat, 50)) * 1e3, 2) if lat else None,
+        }

@@ -69,8 +69,9 @@ class DemoMotion(SampledMotion):
     def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0), move=(0.0, 0.0, 0.0)) -> bool:
         """A correction while demonstrating: from ``at_s`` on, spend ``duration_s`` turning the palm by
         ``palm_delta`` (a rotation vector, palm axes; zeros: a pause) and moving it by ``move`` (m, world), then go
-        on with the rest of the plan that much later (and turned and moved by that much). ``at_s`` must fall in a hold (between two equal keyframes): the path
-        before it is unchanged, so samples already taken stay valid. Returns True (done)."""
+        on with the rest of the plan that much later (and turned and moved by that much). ``at_s`` must fall in a
+        hold (between two equal keyframes): the path before it is unchanged, so samples already taken stay
+        valid. Returns True (done)."""
         at_s = float(at_s)
         k = int(np.searchsorted(self.times, at_s, side="right"))
         if 0 < k < len(self.times) and not (

@@ -39,9 +39,9 @@ PALM_REFERENCES = ("first", "absolute")
 
 class Retargeter:
     """``action, info = retargeter(angles, palm_quat, palm_pos)``. action: float32 (nu,) actuator targets, followed
-    by the palm rotation vector (3,) when ``base_rotation`` and the palm position (3,) when ``base_position``. info: tip_error (n,) m per robot finger, thumb first
-    (robot fingertip vs scaled human fingertip, palm frame), tip_error_mean, ik_iterations, joint_targets (nu,),
-    qpos (the robot's joint positions at the targets)."""
+    by the palm rotation vector (3,) when ``base_rotation`` and the palm position (3,) when ``base_position``.
+    info: tip_error (n,) m per robot finger, thumb first (robot fingertip vs scaled human fingertip, palm frame),
+    tip_error_mean, ik_iterations, joint_targets (nu,), qpos (the robot's joint positions at the targets)."""
 
     @classmethod
     def for_env(cls, env, mode: str = "joint", **kw) -> Retargeter:

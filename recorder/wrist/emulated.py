@@ -20,7 +20,7 @@ from recorder.wrist.marker import MarkerScene, MarkerSpec, MarkerTracker
 class EmulatedCamera:
     def __init__(
         self,
-        marker: MarkerSpec = MarkerSpec(),
+        marker: MarkerSpec | None = None,
         centre=(0.0, 0.0, 0.15),
         distance_m: float = 0.55,
         elevation_deg: float = 50.0,
@@ -28,6 +28,7 @@ class EmulatedCamera:
         fps: float = 30.0,
         marker_in_palm=MARKER_ON_BACK,
     ):
+        marker = marker or MarkerSpec()
         self.scene = MarkerScene(marker)
         self.camera = self.scene.camera
         self.tracker = MarkerTracker(marker, self.camera)

@@ -104,8 +104,8 @@ class WristFusion:
     """``imu(t, q)`` at the glove's rate, ``tracker(pose)`` per tracker pose (a WristPose, times on the same
     clock as ``t``), ``zero(t, start)`` once the palm is in the nominal pose, ``pose(t)`` -> FusedWrist."""
 
-    def __init__(self, config: FusionConfig = FusionConfig(), marker_in_palm=MARKER_ON_BACK):
-        self.config = config
+    def __init__(self, config: FusionConfig | None = None, marker_in_palm=MARKER_ON_BACK):
+        self.config = config = config or FusionConfig()
         self.marker_in_palm = np.asarray(marker_in_palm, float)
         self._imu = deque(maxlen=2000)  # (t, q): the IMU's recent orientations, to look one up at a capture time
         self._last_tracked = None  # (t, p_T, q_T) of the newest tracked pose

@@ -57,7 +57,7 @@ class EmulatedMarker:
 
 
 class WristTrack:
-    def __init__(self, source, config: FusionConfig = FusionConfig()):
+    def __init__(self, source, config: FusionConfig | None = None):
         self.source = source
         self.fusion = WristFusion(config)
         self._pending: deque = deque()

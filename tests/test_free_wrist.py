@@ -1,0 +1,167 @@
+"""The free wrist (issue 24): the base position in the action, the relocate task and its demonstrator, the wrist's
+fusion with the palm IMU (heading, the planar ambiguity, a lost marker), eval's robot identification, and
+`gloverec record --task relocate --wrist marker:VIDEO` on a rendered webcam video."""
+
+import numpy as np
+import pytest
+
+import envs
+from conftest import gloverec
+from recorder import quat
+from recorder.demonstrator.rollout import run_episode
+from recorder.retarget import Retargeter
+from recorder.wrist.format import WristPose
+from recorder.wrist.fusion import FusionConfig, WristFusion
+
+START = np.array([0.0, 0.0, 0.15])
+
+
+def _fusion(**kw) -> WristFusion:
+    f = WristFusion(FusionConfig(camera_noise=False, **kw))
+    f.imu(0.0, quat.IDENTITY)
+    f.tracker(WristPose(0, 0.0, np.array([0.0, 0.0, 0.5]), quat.IDENTITY.copy()))
+    assert f.zero(0.0, START)
+    return f
+
+
+def test_a_free_wrist_task_acts_on_the_base_position_and_names_it():
+    env = envs.make("grasp", base_position=True)
+    u = env.unwrapped
+    assert u.action_names[-6:] == ("base.rx", "base.ry", "base.rz", "base.x", "base.y", "base.z")
+    env.reset(seed=0)
+    a = np.zeros(env.action_space.shape, np.float32)
+    a[-3:] = u.palm_pose()[0] + [0.05, -0.03, 0.04]
+    for _ in range(15):
+        env.step(a)
+    np.testing.assert_allclose(u.palm_pose()[0], a[-3:], atol=3e-3)
+    a[-3:] = [5.0, 0.0, -1.0]  # outside the workspace: clipped to its bounds
+    _, _, _, _, info = env.step(a)
+    np.testing.assert_allclose(info["applied_action"][-3:], [u.base_bounds[1][0], 0.0, u.base_bounds[0][2]], atol=1e-6)
+    assert envs.make("grasp").unwrapped.action_names[-1] == "base.rz"  # without a tracker: as before
+
+
+def test_relocate_is_done_by_its_demonstrator_and_not_by_holding_still():
+    env = envs.make("relocate")
+    r = Retargeter.for_env(env)
+    runs = [run_episode(env, r, seed) for seed in (1, 2)]
+    assert all(x["success"] for x in runs), runs
+    u = env.unwrapped
+    env.reset(seed=1)
+    still = np.concatenate((u.actuated_positions(), np.zeros(3), u.palm_pose()[0])).astype(np.float32)
+    done = False
+    while not done:
+        _, _, term, trunc, info = env.step(still)
+        done = term or trunc
+    assert not info["is_success"]
+
+
+def test_a_marker_hidden_for_a_second_is_held_flagged_and_comes_back_no_faster_than_the_limit():
+    f = _fusion(reacquire_mps=0.2)
+    out, dt = [], 1 / 30
+    for k in range(1, 150):
+        t = k * dt
+        f.imu(t, quat.IDENTITY)
+        x = 0.1 * min(t, 1.0)  # moves 10 cm in 1 s, then stays
+        hidden = 1.0 <= t < 2.0 or 0.5 <= t < 1.0
+        if not hidden:
+            f.tracker(WristPose(k, t, np.array([x, 0.0, 0.5]), quat.IDENTITY.copy()))
+        out.append(f.pose(t))
+    pos = np.array([o.position for o in out])
+    tracked = np.array([o.tracked for o in out])
+    times = np.arange(1, 150) * dt
+    lost = (times >= 0.5 + 0.2 + dt) & (times < 2.0)
+    assert not tracked[lost].any()  # flagged while hidden
+    assert np.ptp(pos[lost], axis=0).max() < 1e-9  # and held
+    steps = np.linalg.norm(np.diff(pos, axis=0), axis=1)
+    back = times[1:] >= 2.0
+    assert steps[back].max() <= 0.2 * dt + 1e-9  # no jump back faster than the limit
+    assert tracked[-1] and abs(pos[-1, 0] - 0.1) < 2e-3  # and it got there, tracked again
+
+
+def test_the_imu_picks_the_right_one_of_the_two_poses_a_square_allows():
+    f = _fusion()
+    true = quat.from_axis_angle([1.0, 0, 0], 0.4)
+    wrong = quat.from_axis_angle([1.0, 0, 0], -0.4)
+    f.imu(0.1, true)
+    f.tracker(WristPose(1, 0.1, np.array([0.0, 0.0, 0.5]), wrong, True, (np.array([0.0, 0.0, 0.5]), true)))
+    assert f.flips == 1
+
+
+def test_the_tracker_removes_the_imu_s_heading_drift():
+    f = _fusion(heading_tau_s=2.0)
+    drift = np.radians(3.0) / 60  # rad/s: 3°/min
+    errs = []
+    for k in range(1, 30 * 120):
+        t = k / 30
+        truth = quat.from_axis_angle([0, 0, 1.0], 0.5 * np.sin(0.5 * t))
+        f.imu(t, quat.mul(quat.from_axis_angle([0, 0, 1.0], drift * t), truth))
+        f.tracker(WristPose(k, t, np.array([0.0, 0.0, 0.5]), truth))
+        errs.append(np.degrees(quat.angle_between(f.pose(t).quat, truth)))
+    assert drift * 120 > np.radians(5.9)  # the IMU alone would be 6° off by now
+    assert max(errs[30 * 20 :]) < 0.5
+
+
+def test_eval_knows_the_robot_from_a_free_wrist_policy_s_action_names():
+    from policies.evaluate import trained_setup
+
+    names = list(envs.make("relocate", "shadow").unwrapped.action_names)
+    assert trained_setup({"robot": None, "names": {"action": names}}) == (None, "shadow")
+
+
+@pytest.fixture(scope="module")
+def wrist_video(tmp_path_factory):
+    """Two relocate demonstrations' wrist paths, filmed by the emulated webcam: a lossless video and its camera."""
+    from recorder.demonstrator import make_demonstrator
+    from recorder.wrist.emulated import EmulatedCamera
+
+    folder = tmp_path_factory.mktemp("wrist")
+    env = envs.make("relocate")
+    u = env.unwrapped
+    pos, qs = [], []
+    for seed in (0, 1):
+        env.reset(seed=seed)
+        b = make_demonstrator("relocate").plan(u, seed=seed).at(np.arange(0, 9.0, 1 / 30))
+        pos += list(b.palm_pos)
+        qs += list(b.palm_quat)
+    cam = EmulatedCamera()
+    cam.record(folder / "wrist.mkv", pos, qs)
+    cam.camera.save(folder / "camera.json")
+    cam.close()
+    return folder
+
+
+@pytest.mark.process
+def test_record_relocate_with_a_marker_video_stores_the_base_position(tmp_path, wrist_video):
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    root = tmp_path / "ds"
+    r = gloverec("record", "--task", "relocate", "--wrist", f"marker:{wrist_video / 'wrist.mkv'}", "--wrist-camera",
+                 str(wrist_video / "camera.json"), "--episodes", "2", "--root", str(root), "--repo-id", "test/reloc",
+                 timeout=120)  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    ds = LeRobotDataset("test/reloc", root=root)
+    assert ds.num_episodes == 2
+    assert ds.meta.features["action"]["names"][-3:] == ["base.x", "base.y", "base.z"]
+    tracked = np.array(ds.hf_dataset["quality.wrist_tracked"])
+    assert tracked.mean() > 0.95
+    wrist = np.array(ds.hf_dataset["observation.wrist"])
+    assert np.ptp(wrist[:, 2]) > 0.05  # the wrist went down to the object and up again
+
+
+@pytest.mark.parametrize(
+    ("wrist", "camera", "says"),
+    [
+        ("marker:{d}/missing.mkv", "{d}/camera.json", "cannot open the camera or video"),
+        ("marker:{d}/camera.json", "{d}/camera.json", "cannot open the camera or video"),  # not a video
+        ("marker:{d}/wrist.mkv", "{d}/wrist.mkv", "bad camera calibration"),
+        ("laser:3", "{d}/camera.json", "unknown wrist source"),
+    ],
+)
+@pytest.mark.process
+def test_a_bad_wrist_is_one_line_before_anything_is_recorded(tmp_path, wrist_video, wrist, camera, says):
+    root = tmp_path / "ds"
+    d = str(wrist_video)
+    r = gloverec("record", "--task", "relocate", "--wrist", wrist.format(d=d), "--wrist-camera", camera.format(d=d),
+                 "--episodes", "1", "--root", str(root), "--repo-id", "test/bad")  # fmt: skip
+    assert r.returncode != 0 and says in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert not (root / "data").exists()

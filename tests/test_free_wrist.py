@@ -79,7 +79,7 @@ def test_a_marker_hidden_for_a_second_is_held_flagged_and_comes_back_no_faster_t
 
 
 def test_the_imu_picks_the_right_one_of_the_two_poses_a_square_allows():
-    f = _fusion()
+    f = _fusion(settle_s=0.0)  # past the first second's settling
     true = quat.from_axis_angle([1.0, 0, 0], 0.4)
     wrong = quat.from_axis_angle([1.0, 0, 0], -0.4)
     f.imu(0.1, true)

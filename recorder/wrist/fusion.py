@@ -45,6 +45,7 @@ class FusionConfig:
     __pydantic_config__ = STRICT
 
     heading_tau_s: Annotated[float, Positive] = 3.0
+    settle_s: Annotated[float, NonNegative] = 1.0  # after the zero: T's orientation averaged over this, from the IMU
     gate_deg: Annotated[float, Positive] = 20.0
     latency_s: Annotated[float, NonNegative] = 0.0  # the tracker's, capture to stamp (measured: latency.py)
     lost_after_s: Annotated[float, Positive] = 0.2
@@ -160,14 +161,20 @@ class WristFusion:
         q_imu = self._imu_at(t)
         if self.t_in_w is not None and q_imu is not None:
             expected = self._palm_w_from_imu(q_imu)
-            if alternative is not None:
+            if t - self._zero_t < self.config.settle_s:  # the first second: T's orientation from the IMU, averaged
+                estimate = quat.mul(expected, quat.mul(self.marker_in_palm, quat.conj(q)))
+                self._t_sum += estimate if np.dot(estimate, self._t_sum) >= 0 else -estimate
+                self.t_in_w = quat.normalize(self._t_sum)
+                expected = None
+            if alternative is not None and expected is not None:
                 qa = quat.normalize(np.asarray(alternative[1], float))
                 if quat.angle_between(self._palm_w_from_marker(qa), expected) < quat.angle_between(
                     self._palm_w_from_marker(q), expected
                 ):
                     p, q = np.asarray(alternative[0], float), qa
                     self.flips += 1
-            self._correct_heading(t, self._palm_w_from_marker(q), expected)
+            if expected is not None:
+                self._correct_heading(t, self._palm_w_from_marker(q), expected)
         gap = self._last_tracked is not None and t - self._last_tracked[0] > self.config.lost_after_s
         self._catching_up = self._catching_up or gap
         self._last_tracked = (t, p, q)
@@ -191,6 +198,7 @@ class WristFusion:
             return False
         _, p, q = self._last_tracked
         self.t_in_w = quat.mul(self.marker_in_palm, quat.conj(q))
+        self._t_sum, self._zero_t = self.t_in_w.copy(), float(t)
         self.imu_in_w = quat.conj(q_imu)
         self.heading = 0.0
         self.origin = (self._filter.position(t), np.asarray(start, float))

@@ -165,3 +165,13 @@ def test_a_bad_wrist_is_one_line_before_anything_is_recorded(tmp_path, wrist_vid
                  "--episodes", "1", "--root", str(root), "--repo-id", "test/bad")  # fmt: skip
     assert r.returncode != 0 and says in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert not (root / "data").exists()
+
+
+@pytest.mark.process
+def test_resuming_a_dataset_without_a_tracker_with_one_is_refused_in_one_line(tmp_path):
+    root = tmp_path / "ds"
+    args = ("record", "--task", "grasp", "--episodes", "1", "--root", str(root), "--repo-id", "test/g")
+    assert gloverec(*args).returncode == 0
+    r = gloverec(*args, "--resume", "--wrist", "marker:emulated")
+    assert r.returncode != 0 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "features differ" in r.stderr and "observation.wrist" in r.stderr

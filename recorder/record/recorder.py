@@ -113,7 +113,7 @@ class Recorder:
         if self.u.config.base_position and wrist.kind == SCRIPTED and self.demonstrator is None:
             raise GloverecError(f"the {cfg.task} task needs a tracked wrist: --wrist udp:PORT or marker:CAMERA "
                                 "(only the emulator's demonstrator moves a scripted one)")  # fmt: skip
-        if wrist.kind == "marker" and wrist.camera == "emulated" and self.demonstrator is None:
+        if wrist.emulated and self.demonstrator is None:
             raise GloverecError("--wrist marker:emulated films the emulated wearer: record with --glove emulator")
         self.demo = None  # the demonstration being performed (its plan)
         self.schema = DatasetSchema(self.u, use_videos=bool(cfg.cameras))
@@ -158,7 +158,7 @@ class Recorder:
         wrist = self.cfg.wrist_config
         if wrist.kind == SCRIPTED:
             return None
-        if wrist.kind == "marker" and wrist.camera == "emulated":
+        if wrist.emulated:
             source = EmulatedMarker(self._demo_palm)
             fusion = FusionConfig(latency_s=source.camera.latency_s)
         else:
@@ -371,13 +371,13 @@ class Recorder:
             host_tick = clock.tick(k, tick, stats)
             if host_tick == ENDED:
                 break
-            at = g.track.at(clock.pose_time(tick)) if host_tick != LOST else None
+            t_pose = clock.pose_time(tick)
+            at = g.track.at(t_pose) if host_tick != LOST else None
             if at is None:
                 return self._lost(index)
-            device_time = clock.device_time(at, clock.pose_time(tick))
+            device_time = clock.device_time(at, t_pose)
             device_start = device_time if device_start is None else device_start
-            obs, info, done = self._frame(index, k, n_max, obs, at, host_tick, device_time, stats,
-                                          clock.pose_time(tick))  # fmt: skip
+            obs, info, done = self._frame(index, k, n_max, obs, at, host_tick, device_time, stats, t_pose)
             success = bool(info["is_success"])
             self._status_line(index, k, n_max, stats)
             what = self.control.take()
@@ -409,11 +409,11 @@ class Recorder:
             self.clock.advance()
             return g.now()
 
-        at = g.track.at(self.clock.pose_time(start))
-        palm = at.pose.palm if at is not None else None
-        if palm is None:
+        t = self.clock.pose_time(start)
+        at = g.track.at(t)
+        if at is None:
             raise GloverecError(f"no hand pose from {g.name} to start the wrist's tracking on")
-        self.wrist.zero(self.clock.pose_time(start), self.u.palm_pose()[0], palm, wait)
+        self.wrist.zero(t, self.u.palm_pose()[0], at.pose.palm, wait)
 
     def _wrist(self, t: float, palm) -> FusedWrist | None:
         """The palm's pose in the robot's world at glove time ``t`` for a free-wrist task: tracked and fused with the

@@ -47,6 +47,11 @@ class WristConfig:
             raise ConfigError(f"bad wrist source {text!r}: the port must be 1-65535 ({SPECS})")
         return cls("udp", host or "0.0.0.0", int(port))
 
+    @property
+    def emulated(self) -> bool:
+        """``marker:emulated``: the emulated webcam filming the emulated wearer (recorder/wrist/track.py)."""
+        return self.kind == "marker" and self.camera == "emulated"
+
     def __str__(self) -> str:
         if self.kind == "marker":
             return f"marker:{self.camera}"

@@ -47,7 +47,7 @@ class FusionConfig:
     heading_tau_s: Annotated[float, Positive] = 3.0
     settle_s: Annotated[float, NonNegative] = 1.0  # after the zero: T's orientation averaged over this, from the IMU
     gate_deg: Annotated[float, Positive] = 20.0
-    latency_s: Annotated[float, NonNegative] = 0.0  # the tracker's, capture to stamp (measured: latency.py)
+    latency_s: Annotated[float, NonNegative] = 0.0  # the tracker's, capture to stamp (the emulated camera's is known)
     lost_after_s: Annotated[float, Positive] = 0.2
     reacquire_mps: Annotated[float, Positive] = 0.25
     max_mps: Annotated[float, Positive] = 2.0

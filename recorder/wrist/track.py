@@ -15,8 +15,6 @@ import time
 from collections import deque
 from dataclasses import replace
 
-import numpy as np
-
 from recorder import GloverecError
 from recorder.wrist.fusion import FusedWrist, FusionConfig, WristFusion
 
@@ -29,7 +27,6 @@ class EmulatedMarker:
 
     name = "marker:emulated"
     finished = False
-    bad = late = 0
 
     def __init__(self, truth, camera=None):
         from recorder.wrist.emulated import EmulatedCamera
@@ -124,11 +121,3 @@ class WristTrack:
 
     def pose(self, t: float) -> FusedWrist:
         return self.fusion.pose(t)
-
-    def summary(self) -> dict:
-        lat = self.latency_s
-        return {
-            "wrist": self.name,
-            "wrist_flips": self.fusion.flips,
-            "wrist_latency_ms_p50": round(float(np.percentile(lat, 50)) * 1e3, 2) if lat else None,
-        }

@@ -178,7 +178,7 @@ def test_the_marker_s_pose_is_found_in_a_rendered_webcam_image(scene, distance, 
     found = tracker.track(image)
     assert found is not None
     assert np.linalg.norm(found.position - position) < 0.008  # per frame, no filtering: about 1 % of the distance
-    assert np.degrees(quat.angle_between(found.quat, orientation)) < 3.0
+    assert np.degrees(quat.angle_between(found.quat, orientation)) < 4.0  # a frame's tilt is its least sure part
     assert found.error_px < 0.5 and found.alternative is not None  # IPPE's two poses, the right one first here
 
 

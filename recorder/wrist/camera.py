@@ -60,10 +60,10 @@ class MarkerWrist(WristSource):
             read_at = self.frames * self._period if self.video_clock else time.time()
             found = tracker.track(frame[..., ::-1])  # OpenCV's BGR
             if found is not None:
-                last = (found.position, found.quat, found.alternative)
+                last = (found.position, found.quat, found.alternative, found.errors_px)
             if last is not None:
                 self._queue.append((WristPose(self.frames, read_at, np.array(last[0]), np.array(last[1]),
-                                              found is not None, last[2]), time.time()))  # fmt: skip
+                                              found is not None, *last[2:]), time.time()))  # fmt: skip
             self.frames += 1
             if self._period and not self.video_clock:  # a file plays at its frame rate
                 time.sleep(max(0.0, start + self.frames * self._period - time.monotonic()))

@@ -51,12 +51,16 @@ class EmulatedCamera:
         """(the tracked pose, stamped ``t + latency_s``; untracked when the marker is not found, (true position,
         true quat) in the camera's frame) for the palm at (position, palm_quat), W, at capture time ``t``."""
         image, p_true, q_true = self.scene.render(*self.placement(position, palm_quat))
-        found = self.tracker.track(image)
+        return self.tracked(t, image), (p_true, q_true)
+
+    def tracked(self, t: float, image: np.ndarray, tracker: MarkerTracker | None = None) -> WristPose:
+        """The pose a camera source would queue for ``image``, captured at ``t`` (by ``tracker``, default its own)."""
+        found = (tracker or self.tracker).track(image)
         self.frames += 1
         stamp = t + self.latency_s
         if found is None:
-            return WristPose(self.frames, stamp, p_true * np.nan, q_true, False), (p_true, q_true)
-        return WristPose(self.frames, stamp, found.position, found.quat, True, found.alternative), (p_true, q_true)
+            return WristPose(self.frames, stamp, np.full(3, np.nan), quat.IDENTITY.copy(), False)
+        return WristPose(self.frames, stamp, found.position, found.quat, True, found.alternative, found.errors_px)
 
     def record(self, path, positions, quats) -> tuple[np.ndarray, np.ndarray]:
         """A lossless video of the palm at each (position, quat) in W, at ``fps``; returns the truth."""

@@ -43,8 +43,9 @@ class WristFormatError(GloverecError):
 @dataclass(frozen=True)
 class WristPose:
     """One tracked wrist pose: ``seq``, ``t`` (sender's clock, s), ``position`` (3, m), ``quat`` (4, wxyz, unit),
-    ``tracked``; a marker's also ``alternative``, the other pose its square's image allows ((position, quat), not
-    sent over UDP: recorder/wrist/fusion.py picks between the two)."""
+    ``tracked``; a marker's also ``alternative``, the other pose its square's image allows ((position, quat)),
+    and ``errors_px``, the reprojection error of each (px), neither sent over UDP: recorder/wrist/fusion.py picks
+    between the two."""
 
     seq: int
     t: float
@@ -52,6 +53,7 @@ class WristPose:
     quat: np.ndarray
     tracked: bool = True
     alternative: tuple | None = None
+    errors_px: tuple | None = None
 
 
 def encode_json(pose: WristPose) -> bytes:

@@ -2,9 +2,10 @@
 
 Frames. The tracker reports the marker in its own frame T (a camera's: x right, y down, z away from it; a UDP
 tracker's world). The robot's world W has z up and the task's axes. ``zero(t)`` (the zero key, or the start of
-an episode) takes the palm as being in the nominal pose (palm down, fingers along W's +x) at the task's start
-position: it fixes T's orientation in W (through the marker's mounting on the glove, ``marker_in_palm``), the
-tracker position that maps to the start, and the IMU's heading.
+an episode) takes the palm as pointing its fingers along W's +x at the task's start position: it fixes the IMU's
+heading, T's orientation in W (through the marker's mounting on the glove, ``marker_in_palm``) and the tracker
+position that maps to the start. The palm's tilt at the zero is the IMU's, which gravity references: a palm
+held a few degrees off level tilts neither the mapping nor the robot's start.
 
 Orientation: the palm IMU's (the glove's fused palm quaternion, at the glove's rate), turned about W's vertical
 by a heading offset that the tracker's orientation corrects: a complementary filter on that one angle (time
@@ -26,7 +27,6 @@ the output moves to the tracked pose no faster than ``reacquire_mps``, and never
 
 from __future__ import annotations
 
-from collections import deque
 from dataclasses import dataclass
 from typing import Annotated
 
@@ -34,6 +34,9 @@ import numpy as np
 
 from recorder import quat
 from recorder.config import STRICT, NonNegative, Positive
+
+AGREE_DEG = 5.0  # settling frames whose estimates of T's orientation agree this well count as one view of it
+MISS_PX = 3.0  # the cost of a settling frame none of whose poses agrees with a candidate (a reprojection error)
 
 # The marker flat on the back of the hand, its printed x toward the fingers: its axes are the palm's (the palm
 # frame's z points out of the back of the hand, as OpenCV's marker z points out of the print; kinematics.py)
@@ -66,6 +69,38 @@ class FusedWrist:
     quat: np.ndarray
     tracked: bool
     age_s: float
+
+
+class _Orientations:
+    """The IMU's recent orientations (time, quat) in arrays, to look one up at any time (slerp between samples)."""
+
+    def __init__(self, capacity: int = 2048):
+        self.t = np.empty(capacity)
+        self.q = np.empty((capacity, 4))
+        self.n = 0
+
+    def append(self, t: float, q: np.ndarray) -> None:
+        if self.n == len(self.t):  # full: keep the newer half
+            half = self.n // 2
+            self.t[:half], self.q[:half] = self.t[self.n - half : self.n], self.q[self.n - half : self.n]
+            self.n = half
+        self.t[self.n], self.q[self.n] = t, q
+        self.n += 1
+
+    def at(self, t: float):
+        if self.n == 0:
+            return None
+        k = int(np.searchsorted(self.t[: self.n], t))
+        if k <= 0 or k >= self.n:
+            return self.q[min(k, self.n - 1)].copy()
+        t0, t1 = self.t[k - 1], self.t[k]
+        return quat.slerp(self.q[k - 1], self.q[k], (t - t0) / (t1 - t0) if t1 > t0 else 1.0)
+
+
+def heading_of(q) -> float:
+    """The heading (rad, about W's z) of a palm orientation ``q``: its x axis (the fingers) seen from above."""
+    x = quat.rotate(q, np.array([1.0, 0.0, 0.0]))
+    return float(np.arctan2(x[1], x[0]))
 
 
 class _ConstantVelocity:
@@ -108,8 +143,10 @@ class WristFusion:
     def __init__(self, config: FusionConfig | None = None, marker_in_palm=MARKER_ON_BACK):
         self.config = config = config or FusionConfig()
         self.marker_in_palm = np.asarray(marker_in_palm, float)
-        self._imu = deque(maxlen=2000)  # (t, q): the IMU's recent orientations, to look one up at a capture time
+        self._imu = _Orientations()  # the IMU's recent orientations, to look one up at a capture time
         self._last_tracked = None  # (t, p_T, q_T) of the newest tracked pose
+        self._last_poses = []  # its candidates: [(p_T, q_T)], IPPE's two for a marker
+        self._settle = []  # the settling frames' estimates of T's orientation in W, a list per frame
         self._filter = _ConstantVelocity(config.accel_mps2)
         self.heading = 0.0  # rad: the IMU's heading correction about W's z
         self.t_in_w = None  # T's orientation in W (set by zero)
@@ -123,19 +160,10 @@ class WristFusion:
 
     # ------------------------------------------------------------ inputs
     def imu(self, t: float, q) -> None:
-        self._imu.append((float(t), quat.normalize(np.asarray(q, float))))
+        self._imu.append(float(t), quat.normalize(np.asarray(q, float)))
 
     def _imu_at(self, t: float):
-        if not self._imu:
-            return None
-        times = [s[0] for s in self._imu]
-        k = int(np.searchsorted(times, t))
-        if k <= 0:
-            return self._imu[0][1]
-        if k >= len(times):
-            return self._imu[-1][1]
-        (t0, q0), (t1, q1) = self._imu[k - 1], self._imu[k]
-        return quat.slerp(q0, q1, (t - t0) / (t1 - t0) if t1 > t0 else 1.0)
+        return self._imu.at(t)
 
     def _palm_w_from_imu(self, q_imu) -> np.ndarray:
         return quat.mul(quat.from_axis_angle([0, 0, 1.0], self.heading), quat.mul(self.imu_in_w, q_imu))
@@ -156,29 +184,55 @@ class WristFusion:
         if not pose.tracked:
             return
         t = float(pose.t) - self.config.latency_s  # when it was captured
-        p, q = np.asarray(pose.position, float), quat.normalize(np.asarray(pose.quat, float))
-        alternative = getattr(pose, "alternative", None)
+        poses = [(np.asarray(pose.position, float), quat.normalize(np.asarray(pose.quat, float)))]
+        if getattr(pose, "alternative", None) is not None:
+            poses.append(
+                (np.asarray(pose.alternative[0], float), quat.normalize(np.asarray(pose.alternative[1], float)))
+            )
+        errors = getattr(pose, "errors_px", None) or (0.0,) * len(poses)
+        p, q = poses[0]
         q_imu = self._imu_at(t)
         if self.t_in_w is not None and q_imu is not None:
             expected = self._palm_w_from_imu(q_imu)
-            if t - self._zero_t < self.config.settle_s:  # the first second: T's orientation from the IMU, averaged
-                estimate = quat.mul(expected, quat.mul(self.marker_in_palm, quat.conj(q)))
-                self._t_sum += estimate if np.dot(estimate, self._t_sum) >= 0 else -estimate
-                self.t_in_w = quat.normalize(self._t_sum)
-                expected = None
-            if alternative is not None and expected is not None:
-                qa = quat.normalize(np.asarray(alternative[1], float))
-                if quat.angle_between(self._palm_w_from_marker(qa), expected) < quat.angle_between(
-                    self._palm_w_from_marker(q), expected
-                ):
-                    p, q = np.asarray(alternative[0], float), qa
-                    self.flips += 1
-            if expected is not None:
+            settling = t - self._zero_t < self.config.settle_s
+            if settling:  # the first second: T's orientation in W from the IMU's, by consensus
+                self._settle.append([(self._t_in_w_from(expected, qc), e) for (_, qc), e in zip(poses, errors)])
+                self.t_in_w = self._consensus()
+            errors = [quat.angle_between(self._palm_w_from_marker(qc), expected) for _, qc in poses]
+            k = int(np.argmin(errors))
+            p, q = poses[k]
+            self.flips += k
+            if not settling:
                 self._correct_heading(t, self._palm_w_from_marker(q), expected)
         gap = self._last_tracked is not None and t - self._last_tracked[0] > self.config.lost_after_s
         self._catching_up = self._catching_up or gap
         self._last_tracked = (t, p, q)
+        self._last_poses = list(zip(poses, errors))
         self._filter.update(t, p, self._sigma(p))
+
+    def _t_in_w_from(self, palm_w, q_marker) -> np.ndarray:
+        """T's orientation in W that a marker seen at ``q_marker`` (T) means with the palm at ``palm_w`` (W)."""
+        return quat.mul(palm_w, quat.mul(self.marker_in_palm, quat.conj(q_marker)))
+
+    def _consensus(self) -> np.ndarray:
+        """T's orientation in W from the settling frames' candidates (a marker's two IPPE poses per frame, each
+        with its reprojection error): the candidate whose agreeing poses (within ``AGREE_DEG``, one per frame)
+        explain the frames best, summed over the frames (a frame with none costs ``MISS_PX``), averaged with those
+        poses. One frame's ranking of the two poses is a coin toss where the view is near the ambiguity, and a
+        wrist held still at the zero repeats the same view; the errors summed over the frames still tell."""
+        candidates = np.array([c for frame in self._settle for c, _ in frame])
+        frame_of = np.array([f for f, frame in enumerate(self._settle) for _ in frame])
+        error = np.array([e for frame in self._settle for _, e in frame]) ** 2
+        close = quat.angle_between(candidates[:, None], candidates[None]) < np.radians(AGREE_DEG)
+        costs = []
+        for row in close:
+            best = np.full(len(self._settle), MISS_PX**2)  # per frame: its best agreeing pose's error
+            np.minimum.at(best, frame_of[row], error[row])
+            costs.append(best.sum())
+        k = int(np.argmin(costs))
+        agree = candidates[close[k]]
+        agree = np.where((agree @ candidates[k])[:, None] < 0, -agree, agree)
+        return quat.normalize(agree.sum(axis=0))
 
     def _correct_heading(self, t: float, from_marker, from_imu) -> None:
         err = quat.mul(from_marker, quat.conj(from_imu))
@@ -191,16 +245,16 @@ class WristFusion:
         self.heading += yaw * min(dt / self.config.heading_tau_s, 1.0)
 
     def zero(self, t: float, start) -> bool:
-        """The palm is in the nominal pose now, at the robot's ``start`` position: set the mapping. False when
-        there is no tracked pose or IMU orientation to set it from yet."""
+        """The palm points its fingers along W's +x now, at the robot's ``start`` position: set the mapping.
+        False when there is no tracked pose or IMU orientation to set it from yet."""
         q_imu = self._imu_at(t)
         if self._last_tracked is None or q_imu is None:
             return False
-        _, p, q = self._last_tracked
-        self.t_in_w = quat.mul(self.marker_in_palm, quat.conj(q))
-        self._t_sum, self._zero_t = self.t_in_w.copy(), float(t)
-        self.imu_in_w = quat.conj(q_imu)
+        self.imu_in_w = quat.from_axis_angle([0.0, 0.0, 1.0], -heading_of(q_imu))
         self.heading = 0.0
+        palm_w = self._palm_w_from_imu(q_imu)
+        self._settle = [[(self._t_in_w_from(palm_w, qc), e) for (_, qc), e in self._last_poses]]
+        self.t_in_w, self._zero_t = self._consensus(), float(t)
         self.origin = (self._filter.position(t), np.asarray(start, float))
         self._out, self._out_t, self._catching_up = np.asarray(start, float).copy(), float(t), False
         return True
@@ -209,6 +263,13 @@ class WristFusion:
     @property
     def zeroed(self) -> bool:
         return self.origin is not None
+
+    def marker(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """The fused marker pose in the tracker's frame T at ``t`` (after ``zero``): the filtered position and the
+        IMU's orientation (what the tracker would report with no noise, no ambiguity and no latency)."""
+        q_imu = self._imu_at(t)
+        q = quat.mul(quat.conj(self.t_in_w), quat.mul(self._palm_w_from_imu(q_imu), self.marker_in_palm))
+        return self._filter.position(t), q
 
     def pose(self, t: float) -> FusedWrist:
         """The palm's pose in W at ``t`` (after ``zero``)."""

@@ -1,6 +1,6 @@
-"""The wrist from a printed marker seen by a camera: OpenCV's ArUco detector (sub-pixel corners) and its planar
-pose solver (``solvePnPGeneric`` with IPPE_SQUARE, which returns both poses a square's image allows), and a
-MuJoCo scene that renders what a webcam would see of the marker, with the truth, so that the whole camera path
+"""The wrist from a printed marker seen by a camera: OpenCV's ArUco detector (corners refined by the AprilTag
+method) and its planar pose solver (``solvePnPGeneric`` with IPPE_SQUARE, which returns both poses a square's
+image allows), and a MuJoCo scene that renders what a webcam would see of the marker, with the truth, so that the whole camera path
 runs, and is scored, without a webcam.
 
 Frames: the camera's is OpenCV's (x right, y down, z forward); the marker's has its origin at the marker's centre,
@@ -98,14 +98,30 @@ class MarkerPose:
     alternative_error_px: float | None
     corners: np.ndarray
 
+    @property
+    def errors_px(self) -> tuple:
+        """The reprojection error of each pose (px): (the pose's,) or (the pose's, the alternative's)."""
+        return (self.error_px,) if self.alternative is None else (self.error_px, self.alternative_error_px)
+
+
+# How the detector refines the marker's corners. AprilTag's (fitting lines to the black square's edges, OpenCV's
+# CORNER_REFINE_APRILTAG) is the default: ``cornerSubPix`` ("subpix") pulls each L-shaped corner 0.1-0.2 px into
+# the square on a blurred edge, which reads as a marker 0.5 % (0.45 m) to 1.3 % (0.75 m) too far away, several
+# millimetres, where the edge fit is unbiased (bench/wrist.py measures both).
+REFINEMENTS = {
+    "apriltag": cv2.aruco.CORNER_REFINE_APRILTAG,
+    "subpix": cv2.aruco.CORNER_REFINE_SUBPIX,
+    "none": cv2.aruco.CORNER_REFINE_NONE,
+}
+
 
 class MarkerTracker:
     """Per-frame marker pose: ``track(image)`` -> MarkerPose, or None when the marker is not in the image."""
 
-    def __init__(self, marker: MarkerSpec, camera: CameraModel):
+    def __init__(self, marker: MarkerSpec, camera: CameraModel, refinement: str = "apriltag"):
         self.marker, self.camera = marker, camera
         params = cv2.aruco.DetectorParameters()
-        params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
+        params.cornerRefinementMethod = REFINEMENTS[refinement]
         self.detector = cv2.aruco.ArucoDetector(marker.aruco(), params)
         self._k, self._dist = camera.matrix(), np.asarray(camera.dist, np.float64)
 

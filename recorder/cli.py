@@ -79,13 +79,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     w = sub.add_parser("wrist", help="the tracked wrist pose, rate, latency and tracking, to check a tracker")
     w.add_argument("--source", required=True, help="the wrist source: udp:PORT or udp:HOST:PORT (a tracker's "
-                   "pose stream; format: docs/wrist.md), or marker:CAMERA (a device index, video file or "
-                   "URL)")  # fmt: skip
+                   "pose stream; format: docs/wrist.md), marker:CAMERA (a device index, video file or URL), or "
+                   "mcap:FILE (a session log's tracker poses, as `gloverec record --wrist` logged them)")  # fmt: skip
     w.add_argument("--camera", metavar="FILE.json", help="the camera's calibration, for marker:CAMERA (default: "
                    "the one `gloverec calibrate --camera CAMERA` saved)")  # fmt: skip
     w.add_argument("--marker-mm", type=positive_float, default=40.0, help="the marker's side, mm (default 40)")
     w.add_argument("--duration", type=positive_float, help="seconds (default: until Ctrl-C)")
     w.add_argument("--json", action="store_true", help="print one JSON object at the end")
+    w.add_argument("--fast", action="store_true", help="play an mcap:FILE or a video file as fast as it reads (the "
+                   "rate is then the recorded one, and there is no latency)")  # fmt: skip
     w.set_defaults(func=cmd_wrist)
 
     lg = sub.add_parser("log", help="record a glove session to an MCAP file")
@@ -217,7 +219,7 @@ def cmd_wrist(args) -> int:
     from recorder.wrist import open_wrist  # numpy and sockets: not at start-up
     from recorder.wrist.monitor import WristMonitor
 
-    source = open_wrist(args.source, args.camera, args.marker_mm)
+    source = open_wrist(args.source, args.camera, args.marker_mm, paced=not args.fast)
     with source:
         monitor = WristMonitor(source)
         try:

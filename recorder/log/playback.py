@@ -127,6 +127,15 @@ class LogReader:
                 yield LoggedChunk(rec.log_time, rec.log_time - offset, rec.data)
         self.check()
 
+    def messages(self, topic: str) -> Iterator[Message]:
+        """The messages of ``topic`` in file order, up to where the file is readable (a killed writer's too).
+        Raises GloverecError if not a gloverec log."""
+        for rec in self.records():
+            if isinstance(rec, Message) and rec.channel_id in self.channels:
+                if self.channels[rec.channel_id].topic == topic:
+                    yield rec
+        self.check()
+
     def check(self) -> None:
         """Raise GloverecError unless what was read is (the start of) a gloverec log."""
         if self.header is None:

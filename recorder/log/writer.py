@@ -40,6 +40,7 @@ BYTES_ENCODING = "gloverec.bytes"  # schemaless: each message is a chunk of tran
 POSE_TOPIC, RAW_TOPIC, STATUS_TOPIC, EVENT_TOPIC = "/glove/pose", "/glove/raw", "/glove/status", "/glove/event"
 COMPACT_TOPIC = "/glove/pose_compact"
 MARKS_TOPIC = "/gloverec/marks"
+WRIST_TOPIC = "/wrist/pose"  # a tracker's poses as the recording's wrist fusion took them (docs/logs.md)
 SESSION_METADATA = "gloverec.session"
 GLOVE_METADATA = "gloverec.glove"
 CHUNK_SIZE = 256 * 1024  # bytes (uncompressed) per MCAP chunk
@@ -49,6 +50,9 @@ _INT = {"type": "integer"}
 _NUM = {"type": "number"}
 _STR = {"type": "string"}
 _XYZ = {"type": "object", "properties": {"x": _NUM, "y": _NUM, "z": _NUM}, "required": ["x", "y", "z"]}
+_NUM_OR_NULL = {"type": ["number", "null"]}  # null: not finite (an untracked pose's position may be NaN)
+_POSITION = {"type": "object", "properties": dict.fromkeys("xyz", _NUM_OR_NULL), "required": list("xyz")}
+_QUAT = {"type": "object", "properties": dict.fromkeys("wxyz", _NUM_OR_NULL), "required": list("wxyz")}
 
 
 def _schema(title: str, props: dict, desc: str) -> dict:
@@ -157,6 +161,32 @@ SCHEMAS = {
         "required": ["name", "fields", "rx_ns", "log_time_ns", "time"],
     },
 }
+WRIST_SCHEMA = {
+    "$schema": "https://json-schema.org/draft/2020-12/schema",
+    "title": "gloverec.WristPose",
+    "type": "object",
+    "description": "A tracker's wrist pose as the recording's wrist fusion took it. seq: the tracker's counter; "
+    "t: when the pose was measured and taken_t: when the fusion took it, both in s on the glove's device clock "
+    "(the recording loop's clock); rx_ns: host CLOCK_MONOTONIC when it was logged; position (m) and quat (w, x, "
+    "y, z) in the tracker's frame; alternative: a marker's other IPPE pose, or null; errors_px: a marker's "
+    "reprojection error of each pose (px), or null.",
+    "properties": {
+        "seq": _INT,
+        "t": _NUM,
+        "taken_t": _NUM,
+        "rx_ns": _INT,
+        "position": _POSITION,
+        "quat": _QUAT,
+        "tracked": {"type": "boolean"},
+        "alternative": {
+            "type": ["object", "null"],
+            "properties": {"position": _POSITION, "quat": _QUAT},
+            "required": ["position", "quat"],
+        },
+        "errors_px": {"type": ["array", "null"], "items": _NUM},
+    },
+    "required": ["seq", "t", "taken_t", "rx_ns", "position", "quat", "tracked", "alternative", "errors_px"],
+}
 
 
 def _compression():
@@ -186,6 +216,27 @@ def _jsonable(obj):
     if isinstance(obj, np.ndarray):
         return obj.tolist()
     return str(obj)
+
+
+def _finite(values, axes: str) -> dict:
+    return {a: (float(v) if np.isfinite(v) else None) for a, v in zip(axes, values)}
+
+
+def wrist_json(pose, taken_t: float, rx_ns: int) -> dict:
+    """The /wrist/pose message of a WristPose (recorder/wrist/format.py) taken at ``taken_t``; full precision, so
+    a re-recording feeds the fusion the same numbers."""
+    alt, errors = pose.alternative, getattr(pose, "errors_px", None)
+    return {
+        "seq": int(pose.seq),
+        "t": float(pose.t),
+        "taken_t": float(taken_t),
+        "rx_ns": int(rx_ns),
+        "position": _finite(pose.position, "xyz"),
+        "quat": _finite(pose.quat, "wxyz"),
+        "tracked": bool(pose.tracked),
+        "alternative": None if alt is None else {"position": _finite(alt[0], "xyz"), "quat": _finite(alt[1], "wxyz")},
+        "errors_px": None if errors is None else [float(e) for e in errors],
+    }
 
 
 def frame_json(frame) -> tuple[str, dict] | None:
@@ -325,6 +376,7 @@ class McapLogger:
                 "protocol_version": str(PROTOCOL_VERSION),
             },
         )
+        self._wrist = None  # its channel, once wrist_channel() registers it
         self._channels = {}
         for topic, schema in SCHEMAS.items():
             sid = self._writer.register_schema(schema["title"], "jsonschema", json.dumps(schema).encode())
@@ -349,6 +401,30 @@ class McapLogger:
                         self._add(self._channels[msg[0]], t, json.dumps(msg[1], separators=(",", ":")).encode())
                 self._maybe_flush()
             except (OSError, ValueError) as exc:  # disk full, file closed under us...
+                self.error = self._write_error(exc)
+
+    def wrist_channel(self, source: str, latency_s: float = 0.0) -> None:
+        """Register /wrist/pose for a recording with a tracker: ``source`` (its spec) and the wrist fusion's
+        ``latency_s`` (capture to stamp) go into the channel's metadata."""
+        with self._lock:
+            self._check()
+            meta = {"source": str(source), "latency_s": repr(float(latency_s)), "clock": "glove device clock, s",
+                    "log_time_offset_ns": str(self.log_time_offset_ns)}  # fmt: skip
+            sid = self._writer.register_schema(WRIST_SCHEMA["title"], "jsonschema", json.dumps(WRIST_SCHEMA).encode())
+            self._wrist = self._writer.register_channel(WRIST_TOPIC, "json", sid, meta)
+
+    def wrist(self, pose, taken_t: float) -> None:
+        """Log a tracker pose (a WristPose, ``t`` on the glove's clock) the fusion took at glove time ``taken_t``;
+        its log time is now. Errors are kept, as the tap's are."""
+        with self._lock:
+            if self._closed or self.error is not None or self._wrist is None:
+                return
+            rx_ns = time.monotonic_ns()
+            try:
+                data = json.dumps(wrist_json(pose, taken_t, rx_ns), separators=(",", ":")).encode()
+                self._add(self._wrist, rx_ns + self.log_time_offset_ns, data)
+                self._maybe_flush()
+            except (OSError, ValueError) as exc:
                 self.error = self._write_error(exc)
 
     def set_calibration(self, calibration: dict) -> None:
@@ -493,4 +569,13 @@ def _str_values(d: dict) -> dict[str, str]:
     return {str(k): v if isinstance(v, str) else json.dumps(v, default=_jsonable) for k, v in d.items()}
 
 
-__all__ = ["McapLogger", "frame_json", "SCHEMAS", "BYTES_TOPIC", "MARKS_TOPIC"]
+__all__ = [
+    "McapLogger",
+    "frame_json",
+    "wrist_json",
+    "SCHEMAS",
+    "WRIST_SCHEMA",
+    "BYTES_TOPIC",
+    "MARKS_TOPIC",
+    "WRIST_TOPIC",
+]

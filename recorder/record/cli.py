@@ -59,6 +59,7 @@ def add_rerecord_parser(sub) -> None:
 def run_rerecord(args: argparse.Namespace) -> int:
     from recorder.hand.profile import profile_from_dict
     from recorder.log.playback import read_log  # with the recorder: not at start-up
+    from recorder.log.writer import WRIST_TOPIC
     from recorder.record.recorder import Recorder  # lerobot, torch and mujoco
 
     info = read_log(args.log_file)  # a missing, foreign or damaged file: one-line GloverecError
@@ -75,6 +76,8 @@ def run_rerecord(args: argparse.Namespace) -> int:
             f"{args.log_file} comes from a glove without a device clock: its episodes cannot be re-timed"
         )
     as_logged = {"robot": session.get("robot"), "task": session.get("task"), "fps": int(session.get("fps", 30))}
+    if WRIST_TOPIC in info.channels:  # recorded with a tracker: its poses, as the fusion took them, from the log
+        as_logged["wrist"] = f"mcap:{args.log_file}"
     given = config.overrides(args, RecordConfig)
     cfg = RecordConfig.load(
         **{**as_logged, **given},

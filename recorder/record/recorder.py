@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -141,6 +141,7 @@ class Recorder:
         self.glove.fusion.keep_in(self.store.work, self._say)  # meta/gloverec/calibration.json, before any episode
         write_profile(self.store.work, self.profile)  # meta/gloverec/hand_profile.json: whose hand it was
         self.wrist = self._open_wrist()
+        self._device_shift = 0.0  # the glove's device clock - the loop's, at the frame in progress (the wrist's log)
         self.logger = None
         self.log_rel = None
         if cfg.log:
@@ -162,8 +163,9 @@ class Recorder:
             source = EmulatedMarker(self._demo_palm)
             fusion = FusionConfig(latency_s=source.camera.latency_s)
         else:
-            source = open_wrist(wrist, self.cfg.wrist_camera, self.cfg.marker_mm, paced=not self.cfg.is_fast)
-            fusion = FusionConfig()
+            source = open_wrist(wrist, self.cfg.wrist_camera, self.cfg.marker_mm, paced=not self.cfg.is_fast,
+                                glove=self.cfg.glove_config)  # fmt: skip
+            fusion = FusionConfig(latency_s=getattr(source, "latency_s", 0.0))  # a log's: its recording's
         return WristTrack(source, fusion).open()
 
     def _demo_palm(self, t: float):
@@ -190,6 +192,14 @@ class Recorder:
         self.glove.fusion.on_record(self.logger.set_calibration)  # a real glove's: once its first frames came
         self.glove.tap(self.logger)
         self.log_rel = f"logs/{name}"
+        if self.wrist is not None:  # every tracker pose the fusion takes, on the glove's clock (rerecord plays them)
+            self.logger.wrist_channel(str(self.cfg.wrist_config), self.wrist.fusion.config.latency_s)
+            self.wrist.on_pose = self._log_wrist
+
+    def _log_wrist(self, pose, t: float) -> None:
+        """A tracker pose the fusion took at loop time ``t``, into the log with its times on the glove's clock."""
+        shift = self._device_shift
+        self.logger.wrist(replace(pose, t=pose.t + shift), t + shift)
 
     # ------------------------------------------------------------ the session
     def run(self) -> dict:
@@ -403,17 +413,28 @@ class Recorder:
     def _zero_wrist(self, start: float) -> None:
         """The episode starts with the wearer's palm in the nominal pose: the tracker's mapping is set on it."""
         g = self.glove
+        t = self.clock.pose_time(start)
+        steps = [t]
 
         def wait() -> float:
-            g.poll(timeout=0.02)
-            self.clock.advance()
-            return g.now()
+            """The loop's time while the zero waits for a tracked pose: the host's now in real time; faster, one
+            frame period a step from the frame time, so that the session's log re-records the same steps."""
+            if self.clock.realtime:
+                g.poll(timeout=0.02)
+                return g.now()
+            steps.append(steps[-1] + self.period)
+            g.wait_past(steps[-1])
+            return steps[-1]
 
-        t = self.clock.pose_time(start)
         at = g.track.at(t)
         if at is None:
             raise GloverecError(f"no hand pose from {g.name} to start the wrist's tracking on")
+        self._shift_to_device(self.clock.device_time(at, t), t)
         self.wrist.zero(t, self.u.palm_pose()[0], at.pose.palm, wait)
+
+    def _shift_to_device(self, device_time: float, t: float) -> None:
+        """The glove's device clock less the loop's (0 faster than real time, or for a glove without a clock)."""
+        self._device_shift = device_time - t if device_time >= 0 else 0.0
 
     def _wrist(self, t: float, palm) -> FusedWrist | None:
         """The palm's pose in the robot's world at glove time ``t`` for a free-wrist task: tracked and fused with the
@@ -430,6 +451,7 @@ class Recorder:
         """One dataset frame: the glove's pose retargeted, the env stepped, the observation before the step and
         the applied action stored. Returns (the next observation, the step's info, whether the task ended)."""
         stats.held += at.held
+        self._shift_to_device(device_time, t_pose)
         wrist = self._wrist(t_pose, at.pose.palm)
         if wrist is not None:
             stats.wrist_lost += not wrist.tracked

@@ -5,8 +5,9 @@
     udp:9100, udp:HOST:9100  6-DoF poses from any tracker, one datagram each (recorder/wrist/format.py)
     marker:CAMERA            a printed marker on the glove seen by a camera: a device index (0), a video file or
                              a stream URL, as cv2.VideoCapture opens it (recorder/wrist/camera.py)
+    mcap:FILE                the tracker's poses of a session log, played back (recorder/wrist/log.py)
 
-Session-log playback is to come (issue 24); an unknown kind lists these.
+An unknown kind lists these.
 """
 
 from __future__ import annotations
@@ -16,19 +17,24 @@ from dataclasses import dataclass
 from recorder.config import ConfigError
 
 SCRIPTED = "scripted"
-KINDS = (SCRIPTED, "udp", "marker")
-SPECS = "scripted, udp:PORT, udp:HOST:PORT or marker:CAMERA (a device index, video file or stream URL)"
+KINDS = (SCRIPTED, "udp", "marker", "mcap")
+SPECS = (
+    "scripted, udp:PORT, udp:HOST:PORT or marker:CAMERA (a device index, video file or stream URL), or mcap:FILE "
+    "(a session log's tracker poses)"
+)
 
 
 @dataclass(frozen=True)
 class WristConfig:
-    """A wrist source. ``kind``: scripted, udp or marker; ``host``, ``port``: where a udp source listens;
-    ``camera``: what a marker source opens (a device index, a video file or a stream URL)."""
+    """A wrist source. ``kind``: scripted, udp, marker or mcap; ``host``, ``port``: where a udp source listens;
+    ``camera``: what a marker source opens (a device index, a video file or a stream URL); ``file``: the session
+    log an mcap source plays back."""
 
     kind: str = SCRIPTED
     host: str = "0.0.0.0"
     port: int = 0
     camera: str = ""
+    file: str = ""
 
     @classmethod
     def parse(cls, spec: str | WristConfig) -> WristConfig:
@@ -40,6 +46,8 @@ class WristConfig:
         kind, sep, rest = text.partition(":")
         if kind == "marker" and rest:
             return cls("marker", camera=rest)
+        if kind == "mcap" and rest:
+            return cls("mcap", file=rest)
         if kind != "udp" or not sep:
             raise ConfigError(f"unknown wrist source {text!r}; valid: {SPECS}")
         host, _, port = rest.rpartition(":")
@@ -55,4 +63,6 @@ class WristConfig:
     def __str__(self) -> str:
         if self.kind == "marker":
             return f"marker:{self.camera}"
+        if self.kind == "mcap":
+            return f"mcap:{self.file}"
         return SCRIPTED if self.kind == SCRIPTED else f"udp:{self.host}:{self.port}"

@@ -1,4 +1,5 @@
-"""What `gloverec wrist` reports of a wrist source: the latest pose, the rate, the tracked share, latency."""
+"""What `gloverec wrist` reports of a wrist source: the latest pose, the rate, the tracked share, latency. A file
+read as fast as it reads (``video_clock``: a video or a log, `--fast`) is timed by its own stamps, with no latency."""
 
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ class WristMonitor:
         self.last = None
         self._seq = None
         self.started = time.monotonic()
+        self.video_clock = bool(getattr(source, "video_clock", False))  # known once the source is open
 
     def consume(self, pose, arrived: float) -> None:
         self.poses += 1
@@ -26,9 +28,11 @@ class WristMonitor:
         if self._seq is not None:
             self.lost += max((pose.seq - self._seq) % 2**32 - 1, 0)
         self._seq = pose.seq
-        self.first_t = arrived if self.first_t is None else self.first_t
-        self.last_t, self.last = arrived, pose
-        self.latencies_s.append(arrived - pose.t)
+        at = pose.t if self.video_clock else arrived
+        self.first_t = at if self.first_t is None else self.first_t
+        self.last_t, self.last = at, pose
+        if not self.video_clock:
+            self.latencies_s.append(arrived - pose.t)
 
     def run(self, duration: float | None, live: bool = False) -> None:
         """Take poses for ``duration`` s (None: until the source finishes or Ctrl-C), with a status line on stderr

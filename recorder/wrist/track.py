@@ -58,8 +58,9 @@ class WristTrack:
         self.source = source
         self.fusion = WristFusion(config)
         self._pending: deque = deque()
-        self._t0 = None
+        self._t0 = getattr(source, "video_t0", None)  # video time 0 on the loop's clock (None: the first t asked)
         self.latency_s: list = []  # tracker stamp -> arrival, per live pose
+        self.on_pose = None  # on_pose(pose, t): each pose the fusion takes, at loop time t (the session log)
 
     @property
     def video_clock(self) -> bool:
@@ -91,7 +92,10 @@ class WristTrack:
                     time.sleep(0.001)
             self._take(t)
         while self._pending and self._pending[0].t <= t + 1e-9:
-            self.fusion.tracker(self._pending.popleft())
+            pose = self._pending.popleft()
+            self.fusion.tracker(pose)
+            if self.on_pose is not None:
+                self.on_pose(pose, t)
 
     def _behind(self, t: float) -> bool:
         return not self._pending or self._pending[-1].t < t
@@ -112,7 +116,8 @@ class WristTrack:
         deadline = time.monotonic() + FIRST_POSE_S
         self.update(t, palm_quat)
         while not self.fusion.zero(t, start):
-            if wait is None or time.monotonic() > deadline or getattr(self.source, "finished", False):
+            ended = getattr(self.source, "finished", False) and not self._pending  # nothing more will come
+            if wait is None or time.monotonic() > deadline or ended:
                 raise GloverecError(
                     f"no tracked wrist pose from {self.name} to start the episode on: is the marker in view?"
                 )

@@ -1,5 +1,7 @@
 """HandGrasp demonstrator: open the hand wide while the base descends, then, once it has stopped and after a
-human reaction time, close into a power grasp sized for the object (minimum jerk), and keep squeezing.
+human reaction time, close into a power grasp sized for the object (minimum jerk), and keep squeezing. With a free
+wrist (the task's ``base_position``) the wearer also does the script's descent (while opening), lift and tilt
+(recorder/demonstrator/reach.py).
 
 The grasp posture aims a little past contact (the object stops the fingers), so the position servos press
 on it; smaller objects get a tighter target. The operator sizes the grasp by what the robot's hand needs: an
@@ -13,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from recorder.demonstrator.motion import DemoMotion
+from recorder.demonstrator.reach import grip
 from recorder.hand.gestures import GESTURES
 from recorder.hand.kinematics import JOINTS, interpolate_dip
 
@@ -51,10 +54,13 @@ def power_grasp(size_m: float) -> np.ndarray:
 
 @dataclass(frozen=True)
 class GraspDemoConfig:
+    pre_s: tuple = (0.05, 0.3)  # the open hand held at first
     preshape_s: tuple = (0.5, 0.9)  # opening wide, during the descent
     reaction_s: tuple = (0.1, 0.3)  # after the base has stopped
     close_s: tuple = (0.45, 0.8)
     pose_noise_deg: float = 3.0
+    wrist_reaction_s: tuple = (0.15, 0.3)  # a free wrist: each of the script's base moves started this late
+    aim_mm: float = 3.0  # a free wrist: the reach's error, standard deviation, each horizontal axis
     rate_hz: float = 200.0
 
 
@@ -68,16 +74,6 @@ class GraspDemonstrator:
         env = env.unwrapped
         c = self.config
         rng = np.random.default_rng(seed)
-        sched = env.schedule
         size = 2.0 * float(np.mean(env.object_half[:2])) / env.robot.config.retarget.tips.scale
         noise = np.clip(rng.normal(0, 1, len(JOINTS)), -2, 2) * np.radians(c.pose_noise_deg)
-        grasp = power_grasp(size) + noise
-        start = GESTURES["open"]
-        t_pre = rng.uniform(0.05, 0.3)
-        t_open = t_pre + rng.uniform(*c.preshape_s)
-        t_close = sched["close"] + rng.uniform(*c.reaction_s)
-        t_closed = t_close + rng.uniform(*c.close_s)
-        end = max(t_closed, env.config.episode_s) + 1.0
-        times = [0.0, t_pre, t_open, t_close, t_closed, end]
-        poses = [start, start, PREGRASP, PREGRASP, grasp, grasp]
-        return DemoMotion(times, poses, rng, c.rate_hz)
+        return grip(env, rng, c, GESTURES["open"], PREGRASP, power_grasp(size) + noise)

@@ -2,7 +2,9 @@
 descends (the other fingers straight, out of the way), then, once the base has stopped and after a human reaction
 time, close on it (minimum jerk) and keep pressing: the posture aims a few millimetres past contact, as a person
 squeezes a small object. The postures are the robot's pinch (envs.tasks.hand_pinch.robot_pinch): the operator
-watches the robot's fingertips, not their own. Varies timing, aperture, squeeze and posture between demos."""
+watches the robot's fingertips, not their own. Varies timing, aperture, squeeze and posture between demos. With a
+free wrist (the task's ``base_position``) the wearer also does the script's descent and lift
+(recorder/demonstrator/reach.py)."""
 
 from __future__ import annotations
 
@@ -12,12 +14,14 @@ import numpy as np
 
 from envs.tasks.hand_pinch import pinch_angles, robot_pinch
 from recorder.demonstrator.motion import DemoMotion
+from recorder.demonstrator.reach import grip
 from recorder.hand.gestures import GESTURES
 from recorder.hand.kinematics import JOINTS
 
 
 @dataclass(frozen=True)
 class PinchDemoConfig:
+    pre_s: tuple = (0.05, 0.2)  # the open hand held at first
     preshape_s: tuple = (0.35, 0.5)  # to the open pinch, while the base hovers
     aperture_mm: tuple = (18, 28)  # the open pinch: this much wider than the object
     squeeze_mm: tuple = (4, 6)  # the closed pinch: this much narrower (the object stops the fingers)
@@ -28,6 +32,8 @@ class PinchDemoConfig:
     pose_noise_deg: float = 1.5
     palm_deg: float = 1.0  # the palm's wander: a person holds it steady over a small object (3 degrees moves the
     # fingertips 5 mm, half a marble)
+    wrist_reaction_s: tuple = (0.15, 0.3)  # a free wrist: each of the script's base moves started this late
+    aim_mm: float = 2.0  # a free wrist: the reach's error, standard deviation, each horizontal axis
     rate_hz: float = 200.0
 
     def squeeze_for(self, robot: str) -> tuple:
@@ -52,15 +58,7 @@ class PinchDemonstrator:
         start = GESTURES["open"]
         opened = pinch_pose(finger, np.array(open_p) + noise, start)
         closed = pinch_pose(finger, np.array(closed_p) + noise, start)
-        sched = env.schedule
-        t_pre = rng.uniform(0.05, 0.2)
-        t_open = t_pre + rng.uniform(*c.preshape_s)
-        t_close = sched["close"] + rng.uniform(*c.reaction_s)
-        t_closed = t_close + rng.uniform(*c.close_s)
-        end = max(t_closed, env.config.episode_s) + 1.0
-        times = [0.0, t_pre, t_open, t_close, t_closed, end]
-        poses = [start, start, opened, opened, closed, closed]
-        return DemoMotion(times, poses, rng, c.rate_hz, palm_deg=c.palm_deg)
+        return grip(env, rng, c, start, opened, closed, palm_deg=c.palm_deg)
 
 
 def pinch_pose(finger: str, p, start: np.ndarray) -> np.ndarray:

@@ -14,6 +14,7 @@ import numpy as np
 
 from recorder.demonstrator.grasp import PREGRASP, power_grasp
 from recorder.demonstrator.motion import DemoMotion
+from recorder.demonstrator.reach import aim_error
 from recorder.hand.gestures import GESTURES
 from recorder.hand.kinematics import JOINTS
 
@@ -84,8 +85,7 @@ class RelocateDemonstrator:
         grasp = power_grasp(size) + noise
         start, _ = env._base_target(0.0)
         gp = np.array(env.robot.config.grasp_point)
-        aim = np.clip(rng.normal(0, c.aim_mm * 1e-3, 2), -2.5 * c.aim_mm * 1e-3, 2.5 * c.aim_mm * 1e-3)
-        at_object = np.array([*(env.object_start[:2] + aim), 2 * env.object_half[2] + 0.003]) - gp
+        at_object = np.array([*(env.object_start[:2] + aim_error(rng, c.aim_mm)), 2 * env.object_half[2] + 0.003]) - gp
         lifted = at_object + [0, 0, c.lift_m]
         shift = env.target - env.object_start[:2] + rng.normal(0, c.place_mm * 1e-3, 2)
         over_target = lifted + [*shift, 0]

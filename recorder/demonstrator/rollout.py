@@ -175,9 +175,11 @@ def main(argv=None) -> None:
     p.add_argument("--via", choices=VIA, default="direct")
     p.add_argument("--mode", choices=MODES, default="joint")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--free-wrist", action="store_true", help="base_position: the wearer's wrist moves the base")
     p.add_argument("--brief", action="store_true", help="leave out the per-episode runs")
     args = p.parse_args(argv)
-    out = success_rate(args.task, args.robot, args.episodes, args.via, args.mode, args.seed)
+    free = {"base_position": True} if args.free_wrist else {}
+    out = success_rate(args.task, args.robot, args.episodes, args.via, args.mode, args.seed, **free)
     if args.brief:
         out.pop("runs")
     print(json.dumps(out))

@@ -66,12 +66,13 @@ class DemoMotion(SampledMotion):
         """The keyframe path alone (no wander or tremor), (n, 20) rad."""
         return self._keyframes(t, self.poses)
 
-    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0), move=(0.0, 0.0, 0.0)) -> bool:
+    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0), move=(0.0, 0.0, 0.0)) -> float:
         """A correction while demonstrating: from ``at_s`` on, spend ``duration_s`` turning the palm by
         ``palm_delta`` (a rotation vector, palm axes; zeros: a pause) and moving it by ``move`` (m, world), then go
         on with the rest of the plan that much later (and turned and moved by that much). ``at_s`` must fall in a
         hold (between two equal keyframes): the path before it is unchanged, so samples already taken stay
-        valid. Returns True (done)."""
+        valid. Returns when the correction starts (``at_s``; a performer may start it later, or return None
+        when it is too late)."""
         at_s = float(at_s)
         k = int(np.searchsorted(self.times, at_s, side="right"))
         if 0 < k < len(self.times) and not (
@@ -87,7 +88,7 @@ class DemoMotion(SampledMotion):
         at, move = self._keyframes([at_s], self.palm_positions)[0], np.asarray(move, float)
         self.palm_positions = np.concatenate((self.palm_positions[:k], [at, at + move], self.palm_positions[k:] + move))
         self.palm_turns = np.concatenate((self.palm_turns[:k], [turn, turn + delta], self.palm_turns[k:] + delta))
-        return True
+        return at_s
 
     def watch(self, env, into=None) -> None:
         """Called by whoever performs the demonstration after each step of ``env``: a demonstrator that watches

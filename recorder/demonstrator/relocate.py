@@ -53,16 +53,19 @@ class RelocateMotion(DemoMotion):
         if not self.checks or env.t < self.checks[0][0]:
             return
         start, end, kind = self.checks.pop(0)
-        if env.t >= end:
-            return  # past that pause already (a slow loop): go on as planned
+        at, took = env.t + 0.02, 0.3
+        if at >= end:
+            return  # past that pause already, or too late in it to start a correction: go on as planned
         lands = env.object_pose()[:2] + (self.carry if kind == "carry" else 0.0)
         error = env.target - lands
         if kind == "place" and np.linalg.norm(error) < self.nudge_m:
             return
-        at, took = env.t + 0.02, 0.3
         move = (*error, 0.0)
-        if into.revise(at, took, move=move) and into is not self:
-            self.revise(at, took, move=move)  # this plan's own copy, for its times
+        at = into.revise(at, took, move=move)
+        if at is None:
+            return  # too late for whoever performs it (the emulated glove has sent that part): as planned
+        if into is not self:
+            self.revise(at, took, move=move)  # this plan's own copy, when the performer made it
         self.checks = [(a + took, b + took, k) for a, b, k in self.checks]
 
 

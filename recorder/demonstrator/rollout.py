@@ -48,35 +48,28 @@ class _GloveReader:
 
 
 class _TrackedWrist:
-    """The glove reader's hand, with the wrist a webcam tracks: frames of the demonstration's true palm pose at the
-    camera's rate, rendered and tracked, each usable ``latency_s`` after its capture, fused with the glove's palm."""
+    """The glove reader's hand, with the wrist from an emulated webcam filming the demonstration's palm, tracked
+    and fused with the glove's palm as `gloverec record --wrist marker:emulated` does (recorder/wrist/track.py),
+    on the glove samples' clock; the wearer holds still in the start pose until the first frame has come."""
 
     def __init__(self, glove: _GloveReader, motion, camera, start):
-        from recorder.wrist.fusion import FusionConfig, WristFusion
+        from recorder.wrist.fusion import FusionConfig
+        from recorder.wrist.track import EmulatedMarker, WristTrack
 
-        self.glove, self.motion, self.camera = glove, motion, camera
-        self.fusion = WristFusion(FusionConfig(latency_s=camera.latency_s))
-        self.next_frame = 0
-        self.lost = 0
-        angles, palm, _ = glove(0.0)
-        self.fusion.imu(0.0, palm)
-        self._frame()  # the zero: the wearer holds still in the start pose, the first frame is waited for
-        if not self.fusion.zero(0.0, start):
-            raise RuntimeError("the emulated camera cannot see the marker at the start pose")
+        def truth(t: float):
+            b = motion.at([t])
+            return b.palm_pos[0], b.palm_quat[0]
 
-    def _frame(self):
-        t = self.next_frame / self.camera.fps
-        b = self.motion.at([t])
-        pose, _ = self.camera.capture(t, b.palm_pos[0], b.palm_quat[0])
-        self.fusion.tracker(pose)
-        self.next_frame += 1
+        self.glove, self.lost = glove, 0
+        self.track = WristTrack(EmulatedMarker(truth, camera), FusionConfig(latency_s=camera.latency_s))
+        waited = iter(np.arange(1, 31) / camera.fps)
+        self.track.zero(0.0, start, glove(0.0)[1], wait=lambda: float(next(waited)))
 
     def __call__(self, t: float):
         angles, palm, _ = self.glove(t)
-        self.fusion.imu(t - self.glove.latency, palm)
-        while self.next_frame / self.camera.fps + self.camera.latency_s <= t + 1e-9:
-            self._frame()
-        fused = self.fusion.pose(t)
+        t_sample = t - self.glove.latency
+        self.track.update(t_sample, palm)
+        fused = self.track.pose(t_sample)
         self.lost += not fused.tracked
         return angles, fused.quat, fused.position
 

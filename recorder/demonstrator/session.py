@@ -36,7 +36,7 @@ class SessionMotion(DemoMotion):
             self.palm_turns = np.concatenate((self.palm_turns[keep], [turn], demo.palm_turns))
             self.palm_positions = np.concatenate((self.palm_positions[keep], [pos], demo.palm_positions))
 
-    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0), move=(0.0, 0.0, 0.0)) -> bool:
+    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0), move=(0.0, 0.0, 0.0)) -> float:
         with self._lock:
             return super().revise(at_s, duration_s, palm_delta, move)
 

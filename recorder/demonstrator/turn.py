@@ -129,9 +129,10 @@ class TurnMotion(DemoMotion):
         limit = np.radians(self.max_turn_deg)  # no further than the wearer's forearm turns
         now = float(self._keyframes([at_s], self.palm_turns)[0, 2])
         turn = float(np.clip(now + turn, -limit, limit) - now)
-        if not into.revise(at_s, duration_s, (0.0, 0.0, turn)):
+        at_s = into.revise(at_s, duration_s, (0.0, 0.0, turn))
+        if at_s is None:
             return  # too late: what is performed is past that hold
         if into is not self:
-            self.revise(at_s, duration_s, (0.0, 0.0, turn))  # this plan's own copy, for its times
+            self.revise(at_s, duration_s, (0.0, 0.0, turn))  # this plan's own copy, when the performer made it
         self.let_go_s += duration_s
         self.busy_until = at_s + duration_s + self.rng.uniform(*self.config.reaction_s)

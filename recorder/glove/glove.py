@@ -193,16 +193,18 @@ class Glove:
         self._lead_s = WATCHING_LEAD_S if demo.watches else LEAD_S
         self.emulator.schedule_button(start)
 
-    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0), move=(0.0, 0.0, 0.0)) -> bool:
+    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0), move=(0.0, 0.0, 0.0)) -> float | None:
         """The demonstration being performed corrects itself (DemoMotion.revise, ``at_s`` in its own time): in the
-        session's time, and never before what the emulator has synthesised already. False when that is too late:
-        the hold it belonged to is over (the correction is dropped, the demonstration goes on as planned)."""
+        session's time, and never before what the emulator has synthesised already. Returns when it starts, in
+        the demonstration's time (``at_s`` or later), so that the plan's copy makes the same correction; None when
+        that is too late: the hold it belonged to is over (the correction is dropped, the demonstration goes on as
+        planned)."""
         with self._motion.lock:
             at = max(self._demo_start + at_s, self._motion.taken_s + 1.0 / self._motion.rate_hz)
             try:
-                return self.session.revise(at, duration_s, palm_delta, move)
+                return self.session.revise(at, duration_s, palm_delta, move) - self._demo_start
             except ValueError:
-                return False
+                return None
 
     # ------------------------------------------------------------ frames in
     def read(self, timeout: float | None = None):

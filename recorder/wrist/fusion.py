@@ -80,6 +80,8 @@ class _Orientations:
         self.n = 0
 
     def append(self, t: float, q: np.ndarray) -> None:
+        if self.n and t <= self.t[self.n - 1]:  # time went back (a loop that waited for the zero): it restates them
+            self.n = int(np.searchsorted(self.t[: self.n], t))
         if self.n == len(self.t):  # full: keep the newer half
             half = self.n // 2
             self.t[:half], self.q[:half] = self.t[self.n - half : self.n], self.q[self.n - half : self.n]

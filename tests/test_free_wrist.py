@@ -1,12 +1,15 @@
 """The free wrist (issue 24): the base position in the action, the relocate task and its demonstrator, the wrist's
-fusion with the palm IMU (heading, the planar ambiguity, a lost marker), eval's robot identification, and
-`gloverec record --task relocate --wrist marker:VIDEO` on a rendered webcam video."""
+fusion with the palm IMU (heading, the planar ambiguity, a lost marker), eval's robot identification,
+`gloverec record --task relocate --wrist marker:VIDEO` on a rendered webcam video, grasp and pinch with a free wrist,
+and datasets with and without a tracker refused by `gloverec merge`."""
+
+import json
 
 import numpy as np
 import pytest
 
 import envs
-from conftest import gloverec
+from conftest import cli, gloverec
 from recorder import quat
 from recorder.demonstrator.rollout import run_episode
 from recorder.retarget import Retargeter
@@ -175,3 +178,66 @@ def test_resuming_a_dataset_without_a_tracker_with_one_is_refused_in_one_line(tm
     r = gloverec(*args, "--resume", "--wrist", "marker:emulated")
     assert r.returncode != 0 and len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert "features differ" in r.stderr and "observation.wrist" in r.stderr
+
+
+@pytest.mark.parametrize("task", ["grasp", "pinch"])
+def test_with_a_free_wrist_the_grasp_and_pinch_demonstrators_do_the_script_s_moves(task):
+    from recorder.demonstrator import make_demonstrator
+
+    scripted, free = envs.make(task).unwrapped, envs.make(task, base_position=True).unwrapped
+    for seed in (0, 1, 2):
+        scripted.reset(seed=seed)
+        free.reset(seed=seed)
+        plan, alone = make_demonstrator(task).plan(free, seed), make_demonstrator(task).plan(scripted, seed)
+        times = (0.0, free.schedule["lift"], free.config.episode_s)  # the start, down on the object, lifted
+        b = plan.at(np.array(times))
+        start, down, end = (free._base_target(t)[0] for t in times)
+        np.testing.assert_allclose(b.palm_pos[0], start, atol=1e-9)  # where the task puts the hand
+        for got, want in ((b.palm_pos[1], down), (b.palm_pos[2], end)):  # on the script's path, a few mm off
+            assert np.linalg.norm(got - want) < 0.011 and abs(got[2] - want[2]) < 1e-6
+        after = np.arange(1.3, 6.0, 0.1)  # past the descent: the fingers close and hold as without a tracker
+        np.testing.assert_allclose(plan.keyframe_angles(after), alone.keyframe_angles(after), atol=1e-12)
+
+
+RECORDINGS = {  # what the tests below record, as a user types it
+    "free_grasp": "--task grasp --wrist marker:emulated --episodes 2 --fast --glove emulator",
+    "free_pinch": "--task pinch --robot shadow --wrist marker:emulated --episodes 2 --fast --glove emulator",
+    "plain_grasp": "--task grasp --episodes 1",
+}
+
+
+def _recording(shared, name: str) -> tuple:
+    """``gloverec record RECORDINGS[name]``, once per test run (shared read-only): (root, the command's summary)."""
+
+    def build(path) -> None:
+        r = gloverec("record", *RECORDINGS[name].split(), "--root", str(path / "ds"), "--repo-id", f"test/{name}",
+                     "--json", timeout=120)  # fmt: skip
+        assert r.returncode == 0, r.stderr
+        (path / "summary.json").write_text(r.stdout.strip().splitlines()[-1])
+
+    path = shared(name, build)
+    return path / "ds", json.loads((path / "summary.json").read_text())
+
+
+@pytest.mark.process
+@pytest.mark.parametrize("task", ["grasp", "pinch"])
+def test_record_grasp_and_pinch_with_the_emulated_webcam_s_wrist(shared, task):
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    root, summary = _recording(shared, f"free_{task}")
+    ds = LeRobotDataset(f"test/free_{task}", root=root)
+    assert ds.meta.features["action"]["names"][-3:] == ["base.x", "base.y", "base.z"]
+    assert summary["success_rate"] > 0  # the demonstrator reached, closed and lifted through the whole stack
+    wrist = np.array(ds.hf_dataset["observation.wrist"])
+    assert np.ptp(wrist[:, 2]) > 0.05  # the wearer's descent and lift
+
+
+@pytest.mark.process
+def test_datasets_with_and_without_a_tracker_are_not_merged(shared, tmp_path):
+    (tracked, _), (plain, _) = _recording(shared, "free_grasp"), _recording(shared, "plain_grasp")
+    r = cli("merge", "--root", str(tmp_path / "both"), "--from", str(plain), str(tracked))
+    assert r.returncode == 1 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "action: 23 vs 26" in r.stderr and f"only in {tracked}: observation.wrist" in r.stderr, r.stderr
+    assert not (tmp_path / "both").exists()
+    r = cli("merge", "--root", str(tmp_path / "twice"), "--from", str(tracked), str(tracked))  # one kind merges
+    assert r.returncode == 0 and "4 episodes" in r.stdout and "records carried for 4" in r.stdout, r.stderr

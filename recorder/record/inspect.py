@@ -1,5 +1,6 @@
 """`gloverec inspect`: what a recording holds, how well its glove and loop kept time, and a plot of the
-commanded action against the resulting joint state, per joint, for one episode."""
+commanded action against the resulting joint state, per joint, for one episode. `gloverec carry-meta` and
+`gloverec merge`: gloverec's episode records through LeRobot's dataset edits."""
 
 from __future__ import annotations
 
@@ -141,6 +142,17 @@ def add_parsers(sub) -> None:
     )
     c.set_defaults(func=run_carry)
 
+    m = sub.add_parser(
+        "merge",
+        help="merge datasets into one (LeRobot's merge, then carry-meta); datasets that differ are refused",
+        description="LeRobot's merge_datasets (as lerobot-edit-dataset --operation.type=merge) with gloverec's "
+        "episode records carried over. The datasets must have the same fps, robot and features: a dataset recorded "
+        "with a tracker (--wrist) and one without differ in their action (docs/wrist.md).",
+    )
+    m.add_argument("--root", required=True, help="the merged dataset (a new folder)")
+    m.add_argument("--from", dest="sources", nargs="+", required=True, metavar="DATASET", help="the datasets to merge")
+    m.set_defaults(func=run_merge)
+
 
 def run_carry(args) -> int:
     for root in (args.root, *args.sources):
@@ -151,6 +163,53 @@ def run_carry(args) -> int:
     matched, total = carry_sidecar(args.root, args.sources)
     print(f"{matched} of {total} episodes of {args.root} matched an episode of {' '.join(args.sources)}")
     return 0 if matched else 1
+
+
+def run_merge(args) -> int:
+    from lerobot.datasets.dataset_tools import merge_datasets
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    out = Path(args.root)
+    if out.exists():
+        raise GloverecError(f"{out} already exists: merge into a new folder")
+    metas = [load_meta(f"local/{Path(src).name}", Path(src)) for src in args.sources]
+    first, src0 = metas[0], args.sources[0]
+    for meta, src in zip(metas[1:], args.sources[1:]):
+        if (meta.fps, meta.robot_type) != (first.fps, first.robot_type):
+            raise GloverecError(f"cannot merge {src0} ({first.robot_type}, {first.fps} fps) and {src} "
+                                f"({meta.robot_type}, {meta.fps} fps)")  # fmt: skip
+        diff = feature_differences(first.features, meta.features, src0, src)
+        if diff:
+            raise GloverecError(f"cannot merge {src0} and {src}: their features differ ({diff})")
+    datasets = [
+        LeRobotDataset(f"local/{Path(src).name}", root=src, video_backend=video_backend()) for src in args.sources
+    ]
+    merged = merge_datasets(datasets, f"local/{out.name}", out)
+    matched = carry_sidecar(out, args.sources)[0] if any(read_sidecar(src) for src in args.sources) else 0
+    print(f"{out}: {merged.meta.total_episodes} episodes, {merged.meta.total_frames} frames from "
+          f"{len(args.sources)} datasets; gloverec's records carried for {matched}")  # fmt: skip
+    return 0
+
+
+def feature_differences(a: dict, b: dict, name_a: str, name_b: str) -> str:
+    """What differs between two datasets' features, in a few words ("" when they can be merged: LeRobot's rule)."""
+    from lerobot.datasets.feature_utils import features_equal_for_merge
+
+    def size(f: dict) -> str:
+        return "x".join(map(str, f["shape"]))
+
+    both = sorted(set(a) & set(b))
+    parts = [f"{k}: {size(a[k])} vs {size(b[k])}" if a[k]["shape"] != b[k]["shape"] else f"{k}: differs"
+             for k in both if not features_equal_for_merge({k: a[k]}, {k: b[k]})]  # fmt: skip
+    parts += [
+        f"only in {n}: {', '.join(sorted(set(x) - set(y)))}"
+        for n, x, y in ((name_a, a, b), (name_b, b, a))
+        if set(x) - set(y)
+    ]
+    text = "; ".join(parts)
+    if "observation.wrist" in set(a) ^ set(b):
+        text += "; one was recorded with a tracker (--wrist) and one without, see docs/wrist.md"
+    return text
 
 
 def dataset_root(repo_id: str, root: str | None, hub: str | None) -> Path:

@@ -1,8 +1,9 @@
 """What the person demonstrating sees while `gloverec record` runs (``--view``, recorder/view): the scene as it
 is simulated, the target gesture as a ghost, their own hand as the glove measures it, and the status: the task,
 episode k of N and its phase (reset with a countdown, recording with the time left), the scripted move coming up
-("lift in 1.2 s"), the successes so far, the glove's health and the keys. The view's keys and buttons come back
-as the same requests as the terminal's keys.
+("lift in 1.2 s"), the successes so far, the glove's health and the keys; with a free wrist, the tracked palm,
+its tracking and the workspace's bounds (recorder/view/wrist.py), which the terminal's status line also gets
+when it has room. The view's keys and buttons come back as the same requests as the terminal's keys.
 
 Publishing costs the loop a copy of a few kilobytes, at most ``PUBLISH_HZ`` times a second; the status figures
 are refreshed every ``STATUS_S``.
@@ -10,10 +11,13 @@ are refreshed every ``STATUS_S``.
 
 from __future__ import annotations
 
+import os
 import time
 
 import numpy as np
 
+from recorder.view import wrist as wrist_view
+from recorder.view.overlay import wrist_brief
 from recorder.view.process import ViewSpec, default_view, open_view
 from recorder.view.scene import frame_of, layout_of
 
@@ -35,6 +39,8 @@ class LiveView:
             spec = ViewSpec("rerun", mode="save", target=str(root / "logs" / time.strftime("view-%Y%m%d-%H%M%S.rrd")))
         self.env, self.glove, self.cfg = env, glove, cfg
         options = {"control_hz": float(cfg.fps), "episode_s": float(env.config.episode_s)}
+        if env.config.base_position:  # a free wrist: the view frames the workspace's bounds
+            options["base_position"] = True
         self.view = open_view(spec, cfg.task, cfg.robot, layout_of(env), options, on_event=control.request, say=say,
                               hand_size=hand_size)  # fmt: skip
         if self.view is not None:
@@ -46,6 +52,7 @@ class LiveView:
         self._status_at = -1.0
         self._glove: dict = {}
         self._late_ms = 0.0  # the loop's latest ticks, how late at most: views draw less when it is late
+        self.wrist: dict | None = None  # the status' wrist now (recorder/view/wrist.py); None: the task scripts it
 
     @property
     def on(self) -> bool:
@@ -58,12 +65,27 @@ class LiveView:
     def reset_period(self, index: int, countdown: float | None, waiting: str | None = None) -> None:
         """``countdown``: seconds until the episode starts (None: no limit, or not running yet); ``waiting``: what
         the glove's first pose waits for."""
+        if self.env.config.base_position:
+            self.wrist = wrist_view.waiting(self.cfg.wrist_config.kind)
         self._publish({"phase": "reset", "episode": index, "countdown": countdown, "waiting": waiting})
 
-    def recording(self, index: int, k: int, frames: int, stats) -> None:
+    def recording(self, index: int, k: int, frames: int, stats, wrist=None) -> None:
+        """Frame ``k`` of ``frames``; ``wrist``: a free wrist's FusedWrist."""
+        if wrist is not None:
+            self.wrist = wrist_view.status(wrist, self.env.base_bounds, stats.wrist_lost, k + 1,
+                                           self.cfg.wrist_config.kind)  # fmt: skip
         left = (frames - k - 1) / self.cfg.fps
         self._publish({"phase": "recording", "episode": index, "time_left": left, "next": self._next_move()},
-                      stats)  # fmt: skip
+                      stats, wrist)  # fmt: skip
+
+    def with_wrist(self, line: str, out) -> str:
+        """The terminal's status ``line`` with the wrist's state when there is one and the terminal ``out`` has room."""
+        brief = wrist_brief(self.wrist)
+        try:
+            columns = os.get_terminal_size(out.fileno()).columns
+        except (AttributeError, OSError, ValueError):
+            columns = 80
+        return f"{line}  {brief}" if brief and len(line) + 2 + len(brief) < columns else line
 
     def close(self) -> None:
         if self.view is not None:
@@ -76,7 +98,7 @@ class LiveView:
         return {"view": str(self.view.spec), "view_fps": round(self.view.stats.get("fps", 0.0), 1)}
 
     # ------------------------------------------------------------ internals
-    def _publish(self, status: dict, stats=None) -> None:
+    def _publish(self, status: dict, stats=None, wrist=None) -> None:
         now = time.monotonic()
         if self.view is None or now - self._last < 1.0 / PUBLISH_HZ:
             return
@@ -86,7 +108,9 @@ class LiveView:
             self._glove = self._health(stats)
         status.update(late_ms=self._late_ms, seed=self.seed, task=self.task_text, episodes=self.cfg.episodes,
                       saved=self.saved, successes=self.successes, glove=self._glove)  # fmt: skip
-        self.view.publish(frame_of(self.env, status, self.glove.track.newest))
+        if self.wrist is not None:
+            status["wrist"] = self.wrist
+        self.view.publish(frame_of(self.env, status, self.glove.track.newest, wrist))
 
     def _health(self, stats) -> dict:
         g = self.glove

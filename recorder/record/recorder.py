@@ -58,6 +58,7 @@ class EpisodeStats:
     latency_s: list = field(default_factory=list)
     retarget_mm: list = field(default_factory=list)
     wrist_lost: int = 0  # frames whose wrist the tracker did not see (held, or catching up)
+    wrist_delays_s: list = field(default_factory=list)  # per live tracker pose: (its tracking, stamp to applied)
 
     def counted(self, now: dict) -> dict:
         """The link's counters over the episode so far."""
@@ -79,6 +80,9 @@ class EpisodeStats:
             "latency_ms_p99": pct(self.latency_s, 99),
             "retarget_error_mm_mean": round(float(np.mean(self.retarget_mm)), 3) if self.retarget_mm else None,
             "wrist_untracked": self.wrist_lost,
+            "wrist_tracking_ms_p99": pct([d[0] for d in self.wrist_delays_s], 99),
+            "wrist_to_target_ms_p50": pct([d[1] for d in self.wrist_delays_s], 50),
+            "wrist_to_target_ms_p99": pct([d[1] for d in self.wrist_delays_s], 99),
         }
 
 
@@ -459,11 +463,13 @@ class Recorder:
         action, rinfo = self.retarget(at.pose.angles, palm, None if wrist is None else wrist.position)
         latency = self.clock.latency(at)
         nxt, _, terminated, truncated, info = self.env.step(action)
+        if self.wrist is not None:
+            stats.wrist_delays_s.extend(self.wrist.applied())  # its target applied: a tracker's frame's delay
         if self.demo is not None:
             self.demo.watch(self.u, into=self.glove)  # a demonstrator that watches corrects what is still ahead
         row = Row(obs, info["applied_action"], at.pose, latency, at.age_s, rinfo["tip_error_mean"], host_tick,
                   device_time, self.task_text, wrist)  # fmt: skip
-        self.live.recording(index, k, n_max, stats)
+        self.live.recording(index, k, n_max, stats, wrist)
         self.store.add_frame(self.schema.frame(row))
         stats.frames += 1
         if latency is not None:
@@ -521,11 +527,11 @@ class Recorder:
             return
         self._last_line = time.monotonic()
         lat = np.percentile(stats.latency_s, 99) * 1e3 if stats.latency_s else 0.0
-        self.out.write(
-            f"\r\x1b[Kepisode {index}  frame {k + 1}/{n}  late {stats.held}  "
-            f"overruns {stats.overruns}  latency p99 {lat:.1f} ms  "
-            f"glove {'up' if self.glove.connected else 'DOWN'}"
+        line = (
+            f"episode {index}  frame {k + 1}/{n}  late {stats.held}  overruns {stats.overruns}  "
+            f"latency p99 {lat:.1f} ms  glove {'up' if self.glove.connected else 'DOWN'}"
         )
+        self.out.write("\r\x1b[K" + self.live.with_wrist(line, self.out))
         self.out.flush()
 
 

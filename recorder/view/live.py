@@ -3,7 +3,7 @@ native, web or rerun) or rendered to a video.
 
     gloverec view --glove emulator|serial:PORT|udp:PORT|mcap:FILE --robot NAME [--task pose|grasp]
                   [--mode joint|ik|pinch] [--wearer NAME] [--view native|web[:PORT]|rerun[:MODE]] [--video FILE.mp4]
-                  [--duration S]
+                  [--duration S] [--wrist udp:PORT|marker:CAMERA [--wrist-camera FILE.json] [--marker-mm 40]]
 
 The glove's newest HandPose (any glove: pose, compact, or raw frames fused on the host) is retargeted and steps
 the task at its control rate. The view shows what `gloverec record` shows: the scene, the target gesture as a
@@ -12,6 +12,11 @@ ghost, the human hand, the glove's health; its "next" key starts a new scene, "z
 wearer's hand profile (recorder/hand/profile.py), which retargeting and the drawn human hand use.
 ``--glove emulator`` runs the glove emulator on a pseudo-terminal in this process and reads it through the real
 serial path.
+
+``--wrist SOURCE``: a tracker moves the hand's base, as with `gloverec record --wrist` (recorder/wrist: the same
+source, fusion with the palm IMU and mapping; zeroed as the view starts, at each new scene and on the zero key),
+and the view shows the tracked palm, its tracking and the workspace's bounds (recorder/view/wrist.py). A free-wrist
+task (relocate) has no base without one, and says so in one line.
 
 The command's flags: recorder/view/cli.py.
 """
@@ -30,8 +35,12 @@ from recorder.glove.config import GloveConfig
 from recorder.glove.glove import open_glove
 from recorder.hand.profile import wearer_profile
 from recorder.retarget import Retargeter
+from recorder.view import wrist as wrist_view
 from recorder.view.process import ViewSpec, default_view, open_view
 from recorder.view.scene import Stage, frame_of, free_camera, layout_of
+from recorder.wrist import open_wrist
+from recorder.wrist.config import SCRIPTED, WristConfig
+from recorder.wrist.track import WristTrack
 
 VIDEO_SIZE = (480, 640)  # height, width
 FIRST_POSE_S = 5.0  # a raw glove shows its first pose after host fusion's rest (about 1.5 s)
@@ -48,10 +57,18 @@ def run(args) -> int:
     if duration is None and args.video and args.glove == "emulator":
         duration = 10.0
     size = wearer_profile(args.wearer).size()  # a missing or impossible profile: one line, before anything opens
-    overrides = get_task(args.task).live  # the task's endless live scene
+    wrist = WristConfig.parse(args.wrist)
+    if wrist.emulated:
+        raise GloverecError("--wrist marker:emulated films `gloverec record`'s demonstrator: pass udp:PORT or "
+                            "marker:CAMERA")  # fmt: skip
+    overrides = dict(get_task(args.task).live)  # the task's endless live scene
+    if wrist.kind != SCRIPTED:  # the wearer places the base; a scene lasts until "next", which zeroes the wrist again
+        overrides.update(base_position=True, episode_s=1e9, terminate_on_success=False)
     env = make_task(args.task, args.robot, **overrides)
     u = env.unwrapped
-    retarget = Retargeter(u.robot, args.mode, base_rotation=u.config.base_rotation, hand_size=size)
+    if u.config.base_position and wrist.kind == SCRIPTED:
+        raise GloverecError(f"the {args.task} task needs a tracked wrist: pass --wrist udp:PORT or marker:CAMERA")
+    retarget = Retargeter.for_env(env, args.mode, hand_size=size)
     requests: list[str] = []
     lock = threading.Lock()
 
@@ -64,21 +81,25 @@ def run(args) -> int:
         shown = open_view(view, args.task, args.robot, layout_of(u), overrides, on_event=request, say=print,
                           hand_size=size)  # fmt: skip
         shown.wait_ready()
-    glove = open_glove(GloveConfig.parse(args.glove), motion="gestures")
+    glove = track = None
     try:
+        glove = open_glove(GloveConfig.parse(args.glove), motion="gestures")
+        if wrist.kind != SCRIPTED:
+            track = WristTrack(open_wrist(wrist, args.wrist_camera, args.marker_mm)).open()
         env.reset(seed=0)
         if glove.latest(wait_s=FIRST_POSE_S) is None:
             raise GloverecError(f"no hand pose from {args.glove} in {FIRST_POSE_S:.0f} s: is it a glove, sending?")
-        session = _Session(env, retarget, glove, shown, lock, requests, args)
+        session = _Session(env, retarget, glove, shown, lock, requests, args, overrides, track)
         steps = session.run(duration, args.video)
         if args.video:
-            print(f"view: {steps} frames of {args.robot} ({args.task}) to {args.video}, {glove.frames} glove frames")
+            print(f"view: {steps} frames of {args.robot} ({args.task}) to {args.video}, {glove.frames} glove frames"
+                  + (f", wrist tracked {session.tracked_share:.0%}" if track is not None else ""))  # fmt: skip
     except KeyboardInterrupt:
         pass
     finally:
-        glove.close()
-        if shown is not None:
-            shown.close()
+        for opened in (glove, track, shown):
+            if opened is not None:
+                opened.close()
         env.close()
     return 0
 
@@ -86,18 +107,37 @@ def run(args) -> int:
 class _Session:
     """The loop: glove -> retarget -> env, at the task's control rate, shown and/or filmed."""
 
-    def __init__(self, env, retarget, glove, view, lock, requests, args):
+    def __init__(self, env, retarget, glove, view, lock, requests, args, options, wrist=None):
         self.env, self.u, self.retarget, self.glove, self.view = env, env.unwrapped, retarget, glove, view
-        self.lock, self.requests, self.args = lock, requests, args
+        self.lock, self.requests, self.args, self.options = lock, requests, args, options
         self.seed, self._status, self._status_at = 0, {}, -1.0
+        self.wrist = wrist  # a WristTrack (None: the task scripts the base)
+        self.source = WristConfig.parse(args.wrist).kind
+        self.frames = self.untracked = 0  # the wrist's, since it was zeroed
+        self._zero_wrist()
+
+    @property
+    def tracked_share(self) -> float:
+        return 1.0 - self.untracked / max(self.frames, 1)
+
+    def _zero_wrist(self) -> None:
+        """The wearer's palm is in the nominal pose now (palm down, fingers forward) where the robot's palm is."""
+        if self.wrist is None:
+            return
+
+        def wait() -> float:
+            time.sleep(0.02)
+            return time.monotonic()
+
+        self.wrist.zero(time.monotonic(), self.u.palm_pose()[0], self.glove.latest().palm, wait)
+        self.frames = self.untracked = 0
 
     def run(self, duration, video: str | None) -> int:
         rate = self.u.config.control_hz
         writer = stage = renderer = None
         if video:
             writer = imageio.get_writer(video, fps=rate, codec="libx264", quality=7, macro_block_size=8)
-            stage = Stage(self.args.task, self.args.robot, get_task(self.args.task).live,
-                          hand_size=self.retarget.hand_size)  # fmt: skip
+            stage = Stage(self.args.task, self.args.robot, self.options, hand_size=self.retarget.hand_size)
             renderer = mujoco.Renderer(stage.model, *VIDEO_SIZE)
             camera, opt = free_camera(stage), mujoco.MjvOption()
         steps, start = 0, time.monotonic()
@@ -134,6 +174,7 @@ class _Session:
                 return True
             if name == "reset":
                 self.glove.reset_pose()
+                self._zero_wrist()
             elif name in ("next", "rerecord"):
                 self._new_scene()
         return False
@@ -142,10 +183,19 @@ class _Session:
         self.seed += 1
         self.env.reset(seed=self.seed)
         self.retarget.reset()
+        self._zero_wrist()
 
     def _step(self):
         pose = self.glove.latest()
-        action, _ = self.retarget(pose.angles, pose.palm)
+        wrist = None
+        if self.wrist is not None:
+            t = time.monotonic()
+            self.wrist.update(t, pose.palm)
+            wrist = self.wrist.pose(t)
+            self.frames += 1
+            self.untracked += not wrist.tracked
+        palm = pose.palm if wrist is None else wrist.quat
+        action, _ = self.retarget(pose.angles, palm, None if wrist is None else wrist.position)
         _, _, terminated, truncated, _ = self.env.step(action)
         if terminated or truncated:
             self._new_scene()
@@ -156,4 +206,7 @@ class _Session:
             self._status = {"phase": f"viewing {self.args.task} on {self.args.robot}", "seed": self.seed,
                             "glove": {"rate_hz": health.rate_hz, "up": health.up},
                             "keys": ["hand", "next", "reset", "stop"]}  # fmt: skip
-        return frame_of(self.u, dict(self._status), pose)
+        status = dict(self._status)
+        if wrist is not None:
+            status["wrist"] = wrist_view.status(wrist, self.u.base_bounds, self.untracked, self.frames, self.source)
+        return frame_of(self.u, status, pose, wrist)

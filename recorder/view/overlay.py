@@ -5,6 +5,8 @@
     next         lift in 1.2 s
     success      2 of 2 so far
     glove        200 Hz, latency p99 7.9 ms, late 0, dropped 0
+    wrist        tracked 98 % so far, last seen 40 ms ago   (a tracked wrist: "MARKER LOST 1.2 s ago: hold still ...")
+    workspace    at its edge (front, bottom): the robot's palm stops there
     keys         F9 next | F10 record again | F11 zero | F12 stop | F8 human hand   (the web page: → n Enter next, ...)
 
 ``lines(status, key_names)`` gives (label, value) rows; ``columns(status)`` the two text columns MuJoCo's viewer
@@ -66,10 +68,50 @@ def lines(status: dict, key_names: dict[str, str] | None = None) -> list[tuple[s
         if not glove.get("up", True):
             health = "DOWN: waiting for the glove"
         rows.append(("glove", health))
+    wrist = status.get("wrist")
+    if wrist:
+        rows.append(("wrist", wrist_text(wrist)))
+        if wrist.get("edge"):
+            rows.append(("workspace", f"at its edge ({sides(wrist['edge'])}): the robot's palm stops there"))
     keys = status.get("keys", list(key_names))
     if keys:
         rows.append(("keys", " | ".join(f"{key_names[k]} {ACTIONS[k]}" for k in keys if k in key_names)))
     return rows
+
+
+# the workspace's sides as the wearer sees them, at the zero: fingers forward along +x, palm down
+SIDES = {"x+": "front", "x-": "back", "y+": "left", "y-": "right", "z+": "top", "z-": "bottom"}
+
+
+def sides(edge: list) -> str:
+    return ", ".join(SIDES.get(e, e) for e in edge)
+
+
+def wrist_text(wrist: dict) -> str:
+    """The wrist row (recorder/view/wrist.py's status): its state, what to do when the tracker lost it."""
+    state = wrist.get("state")
+    if wrist.get("source") == "scripted":
+        return "the demonstrator's (scripted)"
+    if state == "waiting":
+        return "zeroed as the episode starts: palm flat and down, fingers forward"
+    share = f"tracked {wrist.get('tracked_share', 0.0):.0%} so far"
+    what = "marker" if wrist.get("source") == "marker" else "tracker"
+    if state == "lost":
+        return f"{what.upper()} LOST {wrist.get('age_s', 0.0):.1f} s ago: hold still until it sees you again ({share})"
+    if state == "catching up":
+        return f"catching up: the {what} sees you again, the hand comes back slowly ({share})"
+    return f"{share}, last seen {wrist.get('age_s', 0.0) * 1e3:.0f} ms ago"
+
+
+def wrist_brief(wrist: dict | None) -> str:
+    """The wrist in a few words, for the terminal's status line ("" without one)."""
+    if not wrist or wrist.get("source") == "scripted" or wrist.get("state") in ("waiting", None):
+        return ""
+    state = wrist["state"]
+    text = {"lost": f"wrist LOST {wrist.get('age_s', 0.0):.1f} s", "catching up": "wrist catching up"}.get(
+        state, f"wrist {wrist.get('tracked_share', 0.0):.0%}"
+    )
+    return text + (" at the edge" if wrist.get("edge") else "")
 
 
 def columns(status: dict) -> tuple[str, str]:

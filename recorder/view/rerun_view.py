@@ -1,6 +1,7 @@
 """The rerun view, LeRobot's convention (`lerobot-record --display_data`; rerun-sdk comes with lerobot): per
 actuator the joint target against the joint state, the scene rendered offscreen (with the ghost and the human
-hand), the glove's health and the status text, on rerun's timeline. Where the data goes:
+hand, and a tracked wrist with the workspace's bounds), the glove's health, a tracked wrist's tracking and the
+status text, on rerun's timeline. Where the data goes:
 
     rerun:spawn             a local rerun viewer (needs a display)
     rerun:serve[:PORT]      rerun's web viewer served on 127.0.0.1 (its gRPC stream on PORT, default 9876)
@@ -23,6 +24,7 @@ from recorder.view.scene import Stage, free_camera
 FPS = 30.0
 IMAGE_FPS = 5.0  # software rendering is costly: the scene image is logged at a lower rate
 SIZE = (240, 320)
+SCALARS = {"glove": ("rate_hz", "latency_ms_p99", "late", "dropped"), "wrist": ("tracked_share", "age_s")}
 
 
 def open_sink(mode: str, target: str | None) -> str:
@@ -67,10 +69,11 @@ def run(
                 for i, name in enumerate(actuators):
                     rr.log(f"joints/{name}/target", rr.Scalars(float(frame.ctrl[i])))
                     rr.log(f"joints/{name}/state", rr.Scalars(float(state[i])))
-                glove = frame.status.get("glove") or {}
-                for key in ("rate_hz", "latency_ms_p99", "late", "dropped"):
-                    if glove.get(key) is not None:
-                        rr.log(f"glove/{key}", rr.Scalars(float(glove[key])))
+                for part, keys in SCALARS.items():  # the glove's health, a tracked wrist's tracking
+                    values = frame.status.get(part) or {}
+                    for key in keys:
+                        if values.get(key) is not None:
+                            rr.log(f"{part}/{key}", rr.Scalars(float(values[key])))
                 if frame.hand:
                     rr.log("glove/joint_angles_deg", rr.Scalars(np.degrees(frame.angles)))
                 rows = overlay.lines(frame.status, overlay.TERMINAL_KEY_NAMES)  # rerun has no keys: the terminal's

@@ -18,11 +18,13 @@ import numpy as np
 from recorder.hand.kinematics import N_JOINTS
 
 TEXT_BYTES = 8192
+WRIST_FLOATS = 7  # the tracked wrist's pose: position, quaternion (wxyz)
 
 
 @dataclass(frozen=True)
 class Layout:
-    """The sizes of one scene's arrays: qpos, mocap bodies, actuators, the task's state."""
+    """The sizes of one scene's arrays: qpos, mocap bodies, actuators, the task's state (then the fixed ones: the
+    human hand's, the tracked wrist's)."""
 
     nq: int
     nmocap: int
@@ -31,7 +33,7 @@ class Layout:
 
     @property
     def floats(self) -> int:
-        return self.nq + 7 * self.nmocap + self.nu + self.ntask + 4 + 2 * N_JOINTS + 1
+        return self.nq + 7 * self.nmocap + self.nu + self.ntask + 4 + 2 * N_JOINTS + 1 + WRIST_FLOATS
 
     @property
     def size(self) -> int:
@@ -42,7 +44,9 @@ class Layout:
 class ViewFrame:
     """One view frame: the scene (qpos, mocap bodies, actuator targets, the task's state: goal or object), the
     human hand as the glove measures it (joint angles, palm, per-joint validity; ``hand`` False: none yet), and
-    the status text (a JSON-able mapping, recorder/view/overlay.py)."""
+    the status text (a JSON-able mapping, recorder/view/overlay.py). A free-wrist task adds the palm pose its
+    wrist source gives (``wrist``: position in the robot's world, before the workspace's bounds clip it, and
+    quaternion); its quality and the bounds it is pressed against are the status' ``wrist`` (recorder/view/wrist.py)."""
 
     qpos: np.ndarray
     mocap_pos: np.ndarray
@@ -54,6 +58,7 @@ class ViewFrame:
     valid: np.ndarray = field(default_factory=lambda: np.zeros(N_JOINTS, bool))
     hand: bool = False
     status: dict = field(default_factory=dict)
+    wrist: np.ndarray = field(default_factory=lambda: np.array([0.0, 0, 0, 1, 0, 0, 0]))
 
 
 class SharedFrame:
@@ -89,7 +94,7 @@ class SharedFrame:
     def write(self, frame: ViewFrame) -> None:
         L = self.layout
         parts = [frame.qpos, frame.mocap_pos.reshape(-1), frame.mocap_quat.reshape(-1), frame.ctrl, frame.task,
-                 frame.palm, frame.angles, frame.valid.astype(float), [float(frame.hand)]]  # fmt: skip
+                 frame.palm, frame.angles, frame.valid.astype(float), [float(frame.hand)], frame.wrist]  # fmt: skip
         flat = np.concatenate([np.asarray(p, float).reshape(-1) for p in parts])
         if flat.size != L.floats:
             raise ValueError(f"view frame of {flat.size} values for a layout of {L.floats}")
@@ -117,14 +122,14 @@ class SharedFrame:
 
     def _unpack(self, flat: np.ndarray, text: bytes) -> ViewFrame:
         L = self.layout
-        sizes = [L.nq, 3 * L.nmocap, 4 * L.nmocap, L.nu, L.ntask, 4, N_JOINTS, N_JOINTS, 1]
-        qpos, mpos, mquat, ctrl, task, palm, angles, valid, hand = np.split(flat, np.cumsum(sizes)[:-1])
+        sizes = [L.nq, 3 * L.nmocap, 4 * L.nmocap, L.nu, L.ntask, 4, N_JOINTS, N_JOINTS, 1, WRIST_FLOATS]
+        qpos, mpos, mquat, ctrl, task, palm, angles, valid, hand, wrist = np.split(flat, np.cumsum(sizes)[:-1])
         try:
             status = json.loads(text or b"{}")
         except ValueError:
             status = {}
         return ViewFrame(qpos, mpos.reshape(-1, 3), mquat.reshape(-1, 4), ctrl, task, angles, palm, valid > 0.5,
-                         bool(hand[0] > 0.5), status)  # fmt: skip
+                         bool(hand[0] > 0.5), status, wrist)  # fmt: skip
 
     def close(self) -> None:
         self._seq = self._floats = self._text_len = self._text = None

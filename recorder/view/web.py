@@ -30,7 +30,8 @@ PAGE = """<!doctype html>
  body { background: #1e2227; color: #e6e6e6; font: 15px system-ui, sans-serif; margin: 16px; }
  #scene { width: 640px; height: 480px; background: #000; display: block; }
  table { border-collapse: collapse; margin: 10px 0; } td { padding: 2px 12px 2px 0; vertical-align: top; }
- td.k { color: #9aa4ad; } button { font-size: 15px; margin-right: 8px; padding: 6px 14px; }
+ td.k { color: #9aa4ad; } tr.warn td { color: #ff6b6b; font-weight: 600; } tr.edge td { color: #f07ae6; }
+ button { font-size: 15px; margin-right: 8px; padding: 6px 14px; }
 </style></head><body>
 <img id="scene" src="/stream" alt="the scene">
 <table id="status"></table>
@@ -48,7 +49,8 @@ async function status() {
   try {
     const rows = (await (await fetch("/status")).json()).rows;
     document.getElementById("status").innerHTML = rows.map(
-      ([k, v]) => `<tr><td class="k">${k}</td><td>${v.replace(/&/g, "&amp;").replace(/</g, "&lt;")}</td></tr>`
+      ([k, v]) => `<tr class="${v.includes("LOST") ? "warn" : k === "workspace" ? "edge" : ""}">` +
+        `<td class="k">${k}</td><td>${v.replace(/&/g, "&amp;").replace(/</g, "&lt;")}</td></tr>`
     ).join("");
   } catch (e) {}
   setTimeout(status, 250);
@@ -149,12 +151,15 @@ def _handler(frames: _Frames, events, stage: Stage):
             self._send(204, "text/plain", b"")
 
         def _send(self, code: int, kind: str, body: bytes) -> None:
-            self.send_response(code)
-            self.send_header("Content-Type", kind)
-            self.send_header("Content-Length", str(len(body)))
-            self.send_header("Cache-Control", "no-store")
-            self.end_headers()
-            self.wfile.write(body)
+            try:
+                self.send_response(code)
+                self.send_header("Content-Type", kind)
+                self.send_header("Content-Length", str(len(body)))
+                self.send_header("Cache-Control", "no-store")
+                self.end_headers()
+                self.wfile.write(body)
+            except (BrokenPipeError, ConnectionResetError):
+                pass  # the page went away mid-answer (a browser closed): nothing to tell the operator
 
         def _stream(self) -> None:
             self.send_response(200)

@@ -60,6 +60,7 @@ class WristTrack:
         self._pending: deque = deque()
         self._t0 = getattr(source, "video_t0", None)  # video time 0 on the loop's clock (None: the first t asked)
         self.latency_s: list = []  # tracker stamp -> arrival, per live pose
+        self._fed: list = []  # (tracker stamp, arrival), Unix s, of the live poses taken since ``applied()``
         self.on_pose = None  # on_pose(pose, t): each pose the fusion takes, at loop time t (the session log)
 
     @property
@@ -82,7 +83,7 @@ class WristTrack:
         """The glove's palm orientation at loop time ``t``, and the tracker's poses up to ``t``."""
         self.fusion.imu(t, palm_quat)
         if isinstance(self.source, EmulatedMarker):
-            self._pending.extend(self.source.until(t))
+            self._pending.extend((pose, None) for pose in self.source.until(t))
         else:
             self._t0 = t if self._t0 is None else self._t0
             if self.video_clock:  # a file read faster than real time: wait for its frames to come up to t
@@ -91,23 +92,34 @@ class WristTrack:
                     self._take(t)
                     time.sleep(0.001)
             self._take(t)
-        while self._pending and self._pending[0].t <= t + 1e-9:
-            pose = self._pending.popleft()
+        while self._pending and self._pending[0][0].t <= t + 1e-9:
+            pose, stamps = self._pending.popleft()
             self.fusion.tracker(pose)
+            if stamps is not None:
+                self._fed.append(stamps)
             if self.on_pose is not None:
                 self.on_pose(pose, t)
 
     def _behind(self, t: float) -> bool:
-        return not self._pending or self._pending[-1].t < t
+        return not self._pending or self._pending[-1][0].t < t
 
     def _take(self, t: float) -> None:
         now = time.time()
         for pose, arrival in self.source.take():
             if self.video_clock:
-                self._pending.append(replace(pose, t=self._t0 + pose.t))
+                self._pending.append((replace(pose, t=self._t0 + pose.t), None))
             else:
                 self.latency_s.append(arrival - pose.t)
-                self._pending.append(replace(pose, t=t - (now - pose.t)))
+                self._pending.append((replace(pose, t=t - (now - pose.t)), (pose.t, arrival)))
+
+    def applied(self) -> list:
+        """For each live pose the fusion took since the last call, now that the target it went into is applied
+        (the recording loop calls this after stepping the robot): (the tracker's own delay, its stamp to its
+        arrival: a camera source's detection; the whole delay, its stamp to now), s."""
+        now = time.time()
+        out = [(arrival - stamp, now - stamp) for stamp, arrival in self._fed]
+        self._fed.clear()
+        return out
 
     def zero(self, t: float, start, palm_quat, wait=None) -> None:
         """Zero the mapping at loop time ``t`` (the palm in the nominal pose at the robot's ``start``); without a
@@ -123,6 +135,7 @@ class WristTrack:
                 )
             t = wait()
             self.update(t, palm_quat)
+        self._fed.clear()  # what came while the episode waited for the zero went into no target
 
     def pose(self, t: float) -> FusedWrist:
         return self.fusion.pose(t)

@@ -1,7 +1,9 @@
 """`gloverec calibrate`: its flags; the procedure is recorder/calibrate/procedure.py (loaded when it runs). With
 ``--wearer NAME`` it also saves that wearer's hand profile (recorder/hand/profile.py) beside the calibrations:
 measured (``--hand-length``, ``--hand-breadth``), with the finger proportions the pinch step estimates
-(``--pinch``); measurements alone need no glove."""
+(``--pinch``); measurements alone need no glove. ``--camera CAMERA`` calibrates a camera instead
+(recorder/wrist/calibration.py), and ``--wrist SOURCE`` finds where the tracked marker sits on the glove
+(recorder/calibrate/mount.py)."""
 
 from __future__ import annotations
 
@@ -72,6 +74,23 @@ def add_parser(sub) -> None:
         "index, a video file or a stream URL; saved as camera_<name>.json in --dir (docs/wrist.md)",
     )
     c.add_argument("--views", type=positive_int, default=30, help="board views to take from --camera (default 30)")
+    c.add_argument(
+        "--wrist",
+        metavar="SOURCE",
+        help="find where the tracked marker sits on the glove instead (recorder/calibrate/mount.py): the wrist "
+        "source, marker:CAMERA, udp:PORT or mcap:FILE (marker:emulated[:RX,RY,RZ] with --glove emulator), paired "
+        "with --glove's palm while the wearer tilts and turns the hand; saved as marker_mount.json in --dir, which "
+        "gloverec record --wrist uses (docs/wrist.md)",
+    )
+    c.add_argument(
+        "--duration", type=positive_float, default=15.0, help="seconds of tilting and turning, for --wrist (default 15)"
+    )
+    c.add_argument(
+        "--wrist-camera",
+        metavar="FILE.json",
+        help="the marker camera's calibration, for --wrist marker:CAMERA (default: the one --camera CAMERA saved)",
+    )
+    c.add_argument("--marker-mm", type=positive_float, default=40.0, help="the marker's side, mm (default 40)")
     c.add_argument("--json", action="store_true", help="print a JSON summary instead of the table")
     c.set_defaults(func=cmd_calibrate)
 
@@ -87,6 +106,8 @@ def _glove_id(text: str) -> int:
 
 
 def cmd_calibrate(args) -> int:
+    if args.wrist is not None:
+        return _calibrate_mount(args)
     if args.camera is not None:
         return _calibrate_camera(args)
     from recorder.hand.profile import measured_profile, save_profile, segments_from
@@ -150,4 +171,17 @@ def _calibrate_camera(args) -> int:
         f"({model.cx:.1f}, {model.cy:.1f}), reprojection {rms:.2f} px over {used} views; saved to {path}"
     )
     print(json.dumps(out) if args.json else text)
+    return 0
+
+
+def _calibrate_mount(args) -> int:
+    from recorder.calibrate.mount import calibrate_mount, report  # the glove, OpenCV: when it runs
+
+    if args.glove is None:
+        raise GloverecError("--wrist pairs the tracker's marker with the glove's palm: add --glove GLOVE")
+    if args.camera is not None or args.wearer is not None or args.pinch:
+        raise GloverecError("--wrist finds the marker's mounting alone: drop --camera, --wearer and --pinch")
+    result = calibrate_mount(args.glove, args.wrist, args.duration, args.wrist_camera, args.marker_mm, args.dir,
+                             args.realtime)  # fmt: skip
+    print(json.dumps(result) if args.json else report(result))
     return 0

@@ -206,6 +206,15 @@ class Glove:
             except ValueError:
                 return None
 
+    def performed(self, t: float):
+        """The emulated wearer's palm at glove time ``t`` as the emulator performs it (the session's motion, the
+        palm's drift included: what its IMUs measure), as (position (3,), quat (4,)) in the world; an emulated
+        glove performing demonstrations faster than real time only (``fast``: glove time is its device clock)."""
+        if self.session is None or not self.fast:
+            raise GloverecError("only the emulated glove, faster than real time, knows where its wearer's palm is")
+        b = self.session.at([self._session_time(t)])
+        return b.palm_pos[0], b.palm_quat[0]
+
     # ------------------------------------------------------------ frames in
     def read(self, timeout: float | None = None):
         """The next frame as it came (no fusion, no track): what a command that needs the frames themselves

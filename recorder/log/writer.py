@@ -403,13 +403,16 @@ class McapLogger:
             except (OSError, ValueError) as exc:  # disk full, file closed under us...
                 self.error = self._write_error(exc)
 
-    def wrist_channel(self, source: str, latency_s: float = 0.0) -> None:
-        """Register /wrist/pose for a recording with a tracker: ``source`` (its spec) and the wrist fusion's
-        ``latency_s`` (capture to stamp) go into the channel's metadata."""
+    def wrist_channel(self, source: str, latency_s: float = 0.0, marker_in_palm=None) -> None:
+        """Register /wrist/pose for a recording with a tracker: ``source`` (its spec), the wrist fusion's
+        ``latency_s`` (capture to stamp) and the marker's mounting on the palm it used (``marker_in_palm``, wxyz;
+        recorder/wrist/mounting.py) go into the channel's metadata."""
         with self._lock:
             self._check()
             meta = {"source": str(source), "latency_s": repr(float(latency_s)), "clock": "glove device clock, s",
                     "log_time_offset_ns": str(self.log_time_offset_ns)}  # fmt: skip
+            if marker_in_palm is not None:
+                meta["marker_in_palm"] = json.dumps([float(v) for v in marker_in_palm])
             sid = self._writer.register_schema(WRIST_SCHEMA["title"], "jsonschema", json.dumps(WRIST_SCHEMA).encode())
             self._wrist = self._writer.register_channel(WRIST_TOPIC, "json", sid, meta)
 

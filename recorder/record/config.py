@@ -94,6 +94,12 @@ class RecordConfig:
     wrist_camera: str | None = setting(
         None, "the marker camera's calibration (default: the one `gloverec calibrate --camera` saved)", metavar="FILE"
     )
+    wrist_mount: str | None = setting(
+        None,
+        "where the tracked marker sits on the glove (default: the marker_mount.json `gloverec calibrate --wrist` "
+        "saved, else flat on the back of the hand; a session log's own for mcap:FILE)",
+        metavar="FILE",
+    )
     marker_mm: Annotated[float, Positive] = setting(40.0, "the marker's printed side, mm")
     seed: int = setting(0, "episode k of a session resets the environment with seed + k")
     log: bool = setting(True, "no raw MCAP log of the session beside the dataset", flag="--no-log")

@@ -37,6 +37,7 @@ from recorder.retarget import Retargeter
 from recorder.wrist import open_wrist
 from recorder.wrist.config import SCRIPTED
 from recorder.wrist.fusion import FusedWrist, FusionConfig
+from recorder.wrist.mounting import mounting
 from recorder.wrist.track import EmulatedMarker, WristTrack
 
 FIRST_SAMPLE_TIMEOUT_S = 5.0
@@ -164,13 +165,13 @@ class Recorder:
         if wrist.kind == SCRIPTED:
             return None
         if wrist.emulated:
-            source = EmulatedMarker(self._demo_palm)
+            source = EmulatedMarker(self._demo_palm, mount=wrist.emulated_mount)
             fusion = FusionConfig(latency_s=source.camera.latency_s)
         else:
             source = open_wrist(wrist, self.cfg.wrist_camera, self.cfg.marker_mm, paced=not self.cfg.is_fast,
                                 glove=self.cfg.glove_config)  # fmt: skip
             fusion = FusionConfig(latency_s=getattr(source, "latency_s", 0.0))  # a log's: its recording's
-        return WristTrack(source, fusion).open()
+        return WristTrack(source, fusion, mounting(source, self.cfg.wrist_mount, say=self._say)).open()
 
     def _demo_palm(self, t: float):
         """The emulated wearer's palm (position, quat) in the robot's world at glove time ``t``: the demonstration's."""
@@ -197,7 +198,8 @@ class Recorder:
         self.glove.tap(self.logger)
         self.log_rel = f"logs/{name}"
         if self.wrist is not None:  # every tracker pose the fusion takes, on the glove's clock (rerecord plays them)
-            self.logger.wrist_channel(str(self.cfg.wrist_config), self.wrist.fusion.config.latency_s)
+            f = self.wrist.fusion
+            self.logger.wrist_channel(str(self.cfg.wrist_config), f.config.latency_s, f.marker_in_palm)
             self.wrist.on_pose = self._log_wrist
 
     def _log_wrist(self, pose, t: float) -> None:

@@ -76,6 +76,12 @@ class LogWrist(WristSource):
             self.latency_s = float(meta.get("latency_s", 0.0))
         except ValueError:
             raise GloverecError(f"{self.path}: bad {WRIST_TOPIC} latency_s {meta['latency_s']!r}") from None
+        try:  # the marker's mounting the recording's fusion used (flat, for a log from before it was kept)
+            self.marker_in_palm = np.asarray(json.loads(meta.get("marker_in_palm", "[1, 0, 0, 0]")), float)
+            if self.marker_in_palm.shape != (4,) or abs(np.linalg.norm(self.marker_in_palm) - 1.0) > 0.01:
+                raise ValueError
+        except (ValueError, TypeError):
+            raise GloverecError(f"{self.path}: bad {WRIST_TOPIC} marker_in_palm {meta['marker_in_palm']!r}") from None
 
     def _open(self) -> tuple:
         if self.video_clock:

@@ -16,23 +16,24 @@ from collections import deque
 from dataclasses import replace
 
 from recorder import GloverecError
-from recorder.wrist.fusion import FusedWrist, FusionConfig, WristFusion
+from recorder.wrist.fusion import MARKER_ON_BACK, FusedWrist, FusionConfig, WristFusion
 
 FIRST_POSE_S = 5.0  # an episode waits this long for a tracked pose to zero on
 
 
 class EmulatedMarker:
     """A source that renders what a webcam would film of ``truth(t)`` (the palm's (position, quat) in W at the
-    loop's time t) at the camera's rate, each frame usable ``latency_s`` after its capture."""
+    loop's time t) at the camera's rate, each frame usable ``latency_s`` after its capture; the default camera's
+    marker is mounted on the palm as ``mount`` (WristConfig.emulated_mount)."""
 
     name = "marker:emulated"
     finished = False
 
-    def __init__(self, truth, camera=None):
+    def __init__(self, truth, camera=None, mount=MARKER_ON_BACK):
         from recorder.wrist.emulated import EmulatedCamera
 
         self.truth = truth
-        self.camera = camera or EmulatedCamera()
+        self.camera = camera or EmulatedCamera(marker_in_palm=mount)
         self.next_t = None
 
     def open(self):
@@ -54,9 +55,9 @@ class EmulatedMarker:
 
 
 class WristTrack:
-    def __init__(self, source, config: FusionConfig | None = None):
+    def __init__(self, source, config: FusionConfig | None = None, marker_in_palm=MARKER_ON_BACK):
         self.source = source
-        self.fusion = WristFusion(config)
+        self.fusion = WristFusion(config, marker_in_palm)  # the marker's mounting: recorder/wrist/mounting.py
         self._pending: deque = deque()
         self._t0 = getattr(source, "video_t0", None)  # video time 0 on the loop's clock (None: the first t asked)
         self.latency_s: list = []  # tracker stamp -> arrival, per live pose

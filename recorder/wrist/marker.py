@@ -1,7 +1,7 @@
 """The wrist from a printed marker seen by a camera: OpenCV's ArUco detector (corners refined by the AprilTag
 method) and its planar pose solver (``solvePnPGeneric`` with IPPE_SQUARE, which returns both poses a square's
-image allows), and a MuJoCo scene that renders what a webcam would see of the marker, with the truth, so that the whole camera path
-runs, and is scored, without a webcam.
+image allows), and a MuJoCo scene that renders what a webcam would see of the marker, with the truth, so that the
+whole camera path runs, and is scored, without a webcam.
 
 Frames: the camera's is OpenCV's (x right, y down, z forward); the marker's has its origin at the marker's centre,
 x to the right of the printed image, y up it, z out of the paper.

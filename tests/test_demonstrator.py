@@ -40,6 +40,13 @@ def test_demonstrations_vary_and_repeat():
     assert np.abs(a - c).max() > np.radians(2)
 
 
+def test_a_slow_opening_is_finished_before_the_grasp_closes():
+    env = envs.make("grasp")
+    env.reset(seed=75)  # its preshape ends after the close would begin (keyframes out of order, before)
+    plan = make_demonstrator("grasp").plan(env.unwrapped, seed=75)
+    assert np.all(np.diff(plan.times) >= 0)
+
+
 def test_demo_motion_is_human_like():
     env = envs.make("pose", "glovehand")
     env.reset(seed=0)

@@ -64,11 +64,11 @@ def merge(*tracks):
 
 def grip(env, rng: np.random.Generator, c, start, opened, closed, **motion) -> DemoMotion:
     """Hold ``start`` for ``c.pre_s``, open into ``opened`` in ``c.preshape_s``, close into ``closed`` in ``c.close_s``,
-    ``c.reaction_s`` after the script's base stops (``env.schedule["close"]``), and keep it; with a free wrist,
-    the wearer's wrist follows the script (``c.wrist_reaction_s``, ``c.aim_mm``)."""
+    ``c.reaction_s`` after the script's base stops (``env.schedule["close"]``) or once open if that is later, and
+    keep it; with a free wrist, the wearer's wrist follows the script (``c.wrist_reaction_s``, ``c.aim_mm``)."""
     t_pre = rng.uniform(*c.pre_s)
     t_open = t_pre + rng.uniform(*c.preshape_s)
-    t_close = env.schedule["close"] + rng.uniform(*c.reaction_s)
+    t_close = max(env.schedule["close"] + rng.uniform(*c.reaction_s), t_open)  # a slow opening is finished first
     t_closed = t_close + rng.uniform(*c.close_s)
     end = max(t_closed, env.config.episode_s) + 1.0
     times = [0.0, t_pre, t_open, t_close, t_closed, end]

@@ -32,7 +32,7 @@ from _common import RESULTS, write_results  # noqa: E402
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
 
-GOALS = {"pose": 0.95, "grasp": 0.80, "pinch": 0.80, "keys": 0.80, "turn": 0.80}
+GOALS = {"pose": 0.95, "grasp": 0.80, "pinch": 0.80, "keys": 0.80, "turn": 0.80, "relocate": 0.80}
 TRAIN_GOAL_S = 600
 EVAL_SEED = 100_000
 ACT_FLAGS = [

@@ -61,8 +61,9 @@ def score(tracker: MarkerTracker, shots, rng) -> dict:
         p, q = found.position, found.quat
         if found.alternative is not None and quat.angle_between(found.alternative[1], imu) < quat.angle_between(q, imu):
             p, q = found.alternative
-        rows.append((d, 1000 * np.linalg.norm(found.position - p_true), float(np.degrees(quat.angle_between(found.quat, q_true))),
-                     1000 * np.linalg.norm(p - p_true), float(np.degrees(quat.angle_between(q, q_true))), ms,
+        first_deg = float(np.degrees(quat.angle_between(found.quat, q_true)))
+        rows.append((d, 1000 * np.linalg.norm(found.position - p_true), first_deg, 1000 * np.linalg.norm(p - p_true),
+                     float(np.degrees(quat.angle_between(q, q_true))), ms,
                      (found.position[2] - p_true[2]) / p_true[2]))  # fmt: skip
     seen = [r for r in rows if r[1] is not None]
 

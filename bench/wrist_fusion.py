@@ -2,8 +2,9 @@
 (recorder/wrist/fusion.py), on the relocate demonstrator's wrist paths (the demonstrators' speeds) filmed by the
 emulated webcam (recorder/wrist/emulated.py: 640x480, a 40 mm marker, 30 fps, 50 ms latency). Episode k's camera
 stands 0.45-0.7 m from the workspace (spread over the episodes) and 35-60 degrees above the table; the marker, on
-the moving hand, is seen from the distances the results list (5th-95th percentile) and tilted 25-60 degrees. The IMU is the demonstration's palm at 100 Hz with 0.5 degrees of noise (the synthetic
-glove's); its heading drift is bench/wrist_heading.py's.
+the moving hand, is seen from the distances the results list (5th-95th percentile) and tilted 25-60 degrees. The
+IMU is the demonstration's palm at 100 Hz with 0.5 degrees of noise (the synthetic glove's); its heading drift is
+bench/wrist_heading.py's.
 
 Scored, against the truth:
 - tracking, at each camera frame's capture time, in the camera's frame: the per-frame tracker ("subpix": OpenCV's

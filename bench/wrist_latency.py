@@ -4,7 +4,7 @@ tracking's own time (the frame's detection and pose), measured in the same run.
 
 A lossless video of relocate demonstrations' wrist paths, filmed by the emulated webcam (640x480, 30 fps), plays
 at its frame rate as a camera would deliver it (`marker:VIDEO`), while `gloverec record --task relocate --wrist
-marker:VIDEO --glove emulator` records in real time at 30 fps, with the command's defaults otherwise. Each
+marker:VIDEO --glove emulator --realtime` records in real time at 30 fps, with the command's defaults otherwise. Each
 episode's sidecar line (meta/gloverec/episodes.jsonl) carries wrist_tracking_ms_p99 and wrist_to_target_ms_p50/p99.
 Issue 24's goal: frame to applied target <= one control period plus the measured processing time (p99). Writes
 bench/results/wrist_latency.json.
@@ -58,8 +58,8 @@ def main(argv=None) -> None:
         mkv, cam = video(tmp, 12.0 * args.episodes + 10.0)
         cmd = [sys.executable, "-m", "recorder.cli", "record", "--task", "relocate", "--glove", "emulator",
                "--wrist", f"marker:{mkv}", "--wrist-camera", str(cam), "--episodes", str(args.episodes),
-               "--fps", str(FPS), "--view", "none", "--no-log", "--root", str(tmp / "ds"), "--repo-id", "bench/lat",
-               "--json"]  # fmt: skip
+               "--fps", str(FPS), "--realtime", "--view", "none", "--no-log", "--root", str(tmp / "ds"),
+               "--repo-id", "bench/lat", "--json"]  # fmt: skip
         print("$ gloverec " + " ".join(cmd[3:]), flush=True)
         r = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
         if r.returncode != 0:

@@ -19,6 +19,7 @@ import time
 import numpy as np
 
 import envs  # noqa: F401  (registers the environments)
+from recorder import GloverecError
 from recorder.demonstrator import make_demonstrator
 from recorder.emulator.glove import SyntheticGlove
 from recorder.hand.kinematics import joint_angles_from_relative
@@ -63,7 +64,14 @@ class _TrackedWrist:
         self.glove, self.lost = glove, 0
         self.track = WristTrack(EmulatedMarker(truth, camera), FusionConfig(latency_s=camera.latency_s))
         waited = iter(np.arange(1, 31) / camera.fps)
-        self.track.zero(0.0, start, glove(0.0)[1], wait=lambda: float(next(waited)))
+
+        def wait() -> float:
+            t = next(waited, None)
+            if t is None:
+                raise GloverecError("the emulated webcam did not see the marker at the start pose in 1 s")
+            return float(t)
+
+        self.track.zero(0.0, start, glove(0.0)[1], wait=wait)
 
     def __call__(self, t: float):
         angles, palm, _ = self.glove(t)
@@ -98,7 +106,10 @@ def run_episode(
             from recorder.wrist.emulated import EmulatedCamera
 
             camera = EmulatedCamera()
-        read = _TrackedWrist(_GloveReader(motion, seed, latency_s, noise_deg), motion, camera, u.palm_pose()[0])
+        try:
+            read = _TrackedWrist(_GloveReader(motion, seed, latency_s, noise_deg), motion, camera, u.palm_pose()[0])
+        except GloverecError as exc:  # the wearer cannot start: a failed take, not a failed run
+            return {"seed": seed, "success": False, "steps": 0, "error": str(exc)}
     elif via == "direct":
 
         def read(t):
@@ -154,7 +165,7 @@ def success_rate(
         "episodes": episodes,
         "success_rate": round(ok / episodes, 3),
         "successes": ok,
-        "mean_tip_error_mm": round(float(np.mean([r["tip_error_mm"] for r in runs])), 2),
+        "mean_tip_error_mm": round(float(np.mean([r["tip_error_mm"] for r in runs if "tip_error_mm" in r])), 2),
         "wall_s": round(time.perf_counter() - t0, 2),
         "runs": runs,
     }

@@ -174,7 +174,11 @@ class Recorder:
         return WristTrack(source, fusion, mounting(source, self.cfg.wrist_mount, say=self._say)).open()
 
     def _demo_palm(self, t: float):
-        """The emulated wearer's palm (position, quat) in the robot's world at glove time ``t``: the demonstration's."""
+        """The emulated wearer's palm (position, quat) in the robot's world at glove time ``t``: as the emulator
+        performs it (its IMUs measure that palm, drift included) faster than real time, else the demonstration's
+        plan."""
+        if self.glove.fast:
+            return self.glove.performed(t)
         b = self.demo.at([t - self._episode_start])
         return b.palm_pos[0], b.palm_quat[0]
 

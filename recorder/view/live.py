@@ -40,6 +40,7 @@ from recorder.view.process import ViewSpec, default_view, open_view
 from recorder.view.scene import Stage, frame_of, free_camera, layout_of
 from recorder.wrist import open_wrist
 from recorder.wrist.config import SCRIPTED, WristConfig
+from recorder.wrist.mounting import mounting
 from recorder.wrist.track import WristTrack
 
 VIDEO_SIZE = (480, 640)  # height, width
@@ -85,7 +86,8 @@ def run(args) -> int:
     try:
         glove = open_glove(GloveConfig.parse(args.glove), motion="gestures")
         if wrist.kind != SCRIPTED:
-            track = WristTrack(open_wrist(wrist, args.wrist_camera, args.marker_mm)).open()
+            source = open_wrist(wrist, args.wrist_camera, args.marker_mm)
+            track = WristTrack(source, marker_in_palm=mounting(source, say=print)).open()
         env.reset(seed=0)
         if glove.latest(wait_s=FIRST_POSE_S) is None:
             raise GloverecError(f"no hand pose from {args.glove} in {FIRST_POSE_S:.0f} s: is it a glove, sending?")

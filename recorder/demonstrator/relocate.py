@@ -1,6 +1,12 @@
-"""HandRelocate demonstrator: a person's reach with a free wrist. Look at the object, reach down over it, close into
-the grasp sized for it (as the grasp demonstrator does), lift, carry it by the vector from where it lies to the
-circle's centre, lower it to the table, open, and take the hand away.
+"""HandRelocate demonstrator: a person's reach with a free wrist. Look at the object, reach over it and come down
+onto it, close into the grasp sized for it (as the grasp demonstrator does), lift, carry it by the vector from where
+it lies to the circle's centre, lower it to the table, loosen the grip, open, and take the hand away.
+
+Done as a person does it with a ball: the palm comes down onto the ball's top before the fingers close around it
+(with the palm a few millimetres above it, the closing fingers roll a ball back toward the wrist, out under the heel
+of the hand, where the fingertips hold it against the thumb's base until it slips out); the ball is put down on the
+table at the height it was picked up from; and the grip is loosened before the hand opens (fingers squeezing a ball
+from all sides while some open first shoot it out, and it rolls out of the circle).
 
 The wrist moves on minimum-jerk paths between keyframes (the palm positions of the DemoMotion, in the robot's
 world), each after a human reaction time, with the aim a few millimetres off and the durations varied between
@@ -22,14 +28,21 @@ from recorder.hand.kinematics import JOINTS
 @dataclass(frozen=True)
 class RelocateDemoConfig:
     reaction_s: tuple = (0.15, 0.3)  # before each move: seeing that the last one is done
-    reach_s: tuple = (0.8, 1.1)  # down over the object
+    reach_s: tuple = (0.6, 0.8)  # over the object, ``approach_m`` above where it grasps
+    approach_m: float = 0.02
+    descend_s: tuple = (0.25, 0.35)  # the last of the reach, straight down onto the object, slowly
     close_s: tuple = (0.45, 0.7)
     squeeze_s: float = 0.3
-    lift_s: tuple = (0.6, 0.9)
+    lift_s: tuple = (0.5, 0.75)
     carry_s: tuple = (1.0, 1.4)
-    lower_s: tuple = (0.6, 0.9)
+    lower_s: tuple = (0.5, 0.75)
+    loosen_s: tuple = (0.2, 0.3)  # the grip relaxed before opening: ``loosen`` of the way to the open hand, ...
+    loosen: float = 0.5
+    loosen_spread_deg: float = 10.0  # ... and the fingers spread, off the object's sides
     open_s: tuple = (0.3, 0.5)
-    lift_m: float = 0.08  # how high the object is carried
+    lift_m: float = 0.06  # how high the object is carried
+    land_m: float = -0.002  # where the lowering leaves the object's bottom: on the table (pressing it lightly)
+    palm_on_ball_m: float = 0.01  # a ball: the palm aims this far past its top (the ball stops it: it rests on it)
     aim_mm: float = 3.0  # the reach's error, standard deviation, each horizontal axis
     place_mm: float = 5.0  # the carry's error, the same
     pose_noise_deg: float = 3.0
@@ -42,10 +55,12 @@ class RelocateMotion(DemoMotion):
 
     watches = True
 
-    def __init__(self, *args, checks=(), carry=(0.0, 0.0), nudge_mm: float = 6.0, **kw):
+    def __init__(self, *args, checks=(), carry=(0.0, 0.0), lower=None, land_m=0.0, nudge_mm: float = 6.0, **kw):
         super().__init__(*args, **kw)
         self.checks = list(checks)  # (from_s, to_s, kind): the pauses where the person looks
         self.carry = np.asarray(carry, float)  # the planned carry (x, y) still ahead at the first check
+        self.lower = lower  # how far the plan lowers the object after the carry (m; None: not looked at)
+        self.land_m = land_m  # where the lowering should leave the object's bottom, above where it started
         self.nudge_m = nudge_mm * 1e-3
 
     def watch(self, env, into=None) -> None:
@@ -60,7 +75,10 @@ class RelocateMotion(DemoMotion):
         error = env.target - lands
         if kind == "place" and np.linalg.norm(error) < self.nudge_m:
             return
-        move = (*error, 0.0)
+        dz = 0.0  # after the lift they also see how low the object hangs in the hand, and lower it onto the table
+        if kind == "carry" and self.lower is not None:
+            dz = float(env.object_start[2] + self.land_m - (env.object_pose()[2] - self.lower))
+        move = (*error, dz)
         at = into.revise(at, took, move=move)
         if at is None:
             return  # too late for whoever performs it (the emulated glove has sent that part): as planned
@@ -89,6 +107,8 @@ class RelocateDemonstrator:
         start, _ = env._base_target(0.0)
         gp = np.array(env.robot.config.grasp_point)
         at_object = np.array([*(env.object_start[:2] + aim_error(rng, c.aim_mm)), 2 * env.object_half[2] + 0.003]) - gp
+        if env.object_shape == "sphere":  # on the ball, not just above it: it cannot roll from under the palm
+            at_object[2] -= 0.003 + c.palm_on_ball_m
         lifted = at_object + [0, 0, c.lift_m]
         shift = env.target - env.object_start[:2] + rng.normal(0, c.place_mm * 1e-3, 2)
         over_target = lifted + [*shift, 0]
@@ -106,16 +126,30 @@ class RelocateDemonstrator:
                 checks.append((keys[-2][0], t, look))
             keys.append((t + (took(span) if isinstance(span, tuple) else span), pose, pos))
 
-        then(c.reach_s, PREGRASP, at_object)
+        then(c.reach_s, PREGRASP, at_object + [0, 0, c.approach_m])
+        then(c.descend_s, PREGRASP, at_object, react=False)
         then(c.close_s, grasp, at_object)
         then(c.squeeze_s, grasp, at_object, react=False)
         then(c.lift_s, grasp, lifted, react=False)
         then(c.carry_s, grasp, over_target, look="carry")
         then(c.lower_s, grasp, placed)
-        then(c.open_s, PREGRASP, placed, look="place")
+        loose = grasp + c.loosen * (PREGRASP - grasp)
+        for finger, side in zip(("index", "middle", "ring", "pinky"), (1, 0, -1, -2)):
+            loose[JOINTS.index(f"{finger}_mcp_abd")] += side * np.radians(c.loosen_spread_deg)
+        then(c.loosen_s, loose, placed, look="place")
+        then(c.open_s, PREGRASP, placed, react=False)
         then(c.lift_s, opened, away)
         end = max(keys[-1][0], env.config.episode_s) + 1.0
         keys.append((end, opened, away))
         times, poses, positions = zip(*keys)
-        return RelocateMotion(times, poses, rng, c.rate_hz, palm_pos=np.array(positions), checks=checks,
-                              carry=shift)  # fmt: skip
+        return RelocateMotion(
+            times,
+            poses,
+            rng,
+            c.rate_hz,
+            palm_pos=np.array(positions),
+            checks=checks,
+            carry=shift,
+            lower=float(lifted[2] - placed[2]),
+            land_m=c.land_m,
+        )

@@ -113,6 +113,8 @@ def train(
     else:
         stats = train_cache.stats(keys, meta.stats or {})
         pre, post = make_pre_post_processors(policy_obj.config, dataset_stats=stats)
+        if hasattr(policy_obj, "adopt_stats"):
+            policy_obj.adopt_stats(stats)
         out.mkdir(parents=True, exist_ok=True)
         (out / "split.json").write_text(
             json.dumps(

@@ -8,6 +8,7 @@ import shutil
 
 import numpy as np
 import pytest
+import torch
 
 import envs
 from conftest import cli, gloverec
@@ -241,3 +242,69 @@ def test_datasets_with_and_without_a_tracker_are_not_merged(shared, tmp_path):
     assert not (tmp_path / "both").exists()
     r = cli("merge", "--root", str(tmp_path / "twice"), "--from", str(tracked), str(tracked))  # one kind merges
     assert r.returncode == 0 and "4 episodes" in r.stdout and "records carried for 4" in r.stdout, r.stderr
+
+
+@pytest.mark.parametrize("palm_frame", [True, False])
+def test_bc_on_a_free_wrist_predicts_the_base_target_in_the_palm_s_frame(palm_frame, tmp_path):
+    """Palm, object and target moved together across the table: in the palm frame the network sees the same
+    inputs and the base target it predicts moves with them, exactly (and survives a save and a reload);
+    predicted absolutely, it does not."""
+    from lerobot.configs.types import FeatureType, PolicyFeature
+
+    from policies.bc import BCConfig, BCPolicy
+
+    u = envs.make("relocate").unwrapped
+    names = {"observation.state": u.state_names, "observation.environment_state": u.environment_state_names,
+             "action": u.action_names}  # fmt: skip
+    kinds = {"observation.state": FeatureType.STATE, "observation.environment_state": FeatureType.ENV,
+             "action": FeatureType.ACTION}  # fmt: skip
+    rng = np.random.default_rng(0)
+    stats = {k: {"mean": rng.normal(0, 0.1, len(n)), "std": rng.uniform(0.02, 0.2, len(n))} for k, n in names.items()}
+    cfg = BCConfig(device="cpu", push_to_hub=False, hidden_dim=32, n_layers=2, palm_frame=palm_frame)
+    cfg.input_features = {k: PolicyFeature(kinds[k], (len(n),)) for k, n in names.items() if k != "action"}
+    cfg.output_features = {"action": PolicyFeature(FeatureType.ACTION, (len(names["action"]),))}
+    cfg.set_dataset_feature_metadata({k: {"names": list(n)} for k, n in names.items()})
+    policy = BCPolicy(cfg, dataset_stats=stats)
+    assert (policy.palm_frame is not None) == palm_frame
+
+    def normalised(key, x):
+        return torch.as_tensor((x - stats[key]["mean"]) / stats[key]["std"], dtype=torch.float32)[None]
+
+    state0 = rng.normal(0, 0.1, len(u.state_names))
+    env0 = rng.normal(0, 0.1, len(u.environment_state_names))
+
+    def base_target(dx, dy):
+        """The base targets predicted with palm, object and target moved by (dx, dy) m."""
+        state, env = state0.copy(), env0.copy()
+        for axis, d in (("x", dx), ("y", dy)):
+            state[u.state_names.index(f"palm.{axis}")] += d
+            for thing in ("object", "target"):
+                env[u.environment_state_names.index(f"{thing}.{axis}")] += d
+        batch = {"observation.state": normalised("observation.state", state),
+                 "observation.environment_state": normalised("observation.environment_state", env)}  # fmt: skip
+        base = [u.action_names.index(f"base.{a}") for a in "xyz"]
+        chunk = policy.predict_action_chunk(batch)[0, :, base].numpy()
+        return chunk * stats["action"]["std"][base] + stats["action"]["mean"][base]
+
+    here = base_target(0.0, 0.0)
+    there = base_target(0.07, -0.05)
+    moved = np.abs(there - here - [0.07, -0.05, 0.0]).max()
+    assert (moved < 1e-5) == palm_frame, moved
+    if palm_frame:
+        policy.save_pretrained(tmp_path / "p")
+        policy = BCPolicy.from_pretrained(tmp_path / "p")
+        assert policy.palm_frame is not None and np.allclose(base_target(0.07, -0.05), there, atol=1e-6)
+
+
+def test_bc_without_a_free_wrist_has_no_palm_frame():
+    from lerobot.configs.types import FeatureType, PolicyFeature
+
+    from policies.bc import BCConfig, BCPolicy
+
+    u = envs.make("grasp").unwrapped
+    cfg = BCConfig(device="cpu", push_to_hub=False, hidden_dim=32, n_layers=2)
+    cfg.input_features = {"observation.state": PolicyFeature(FeatureType.STATE, (len(u.state_names),))}
+    cfg.output_features = {"action": PolicyFeature(FeatureType.ACTION, (len(u.action_names),))}
+    cfg.set_dataset_feature_metadata({"observation.state": {"names": list(u.state_names)},
+                                      "action": {"names": list(u.action_names)}})  # fmt: skip
+    assert BCPolicy(cfg).palm_frame is None

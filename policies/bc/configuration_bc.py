@@ -45,6 +45,15 @@ class BCConfig(PreTrainedConfig):
     use_images: bool = True
     image_channels: tuple[int, ...] = (32, 64, 64)  # the per-camera CNN (stride-2 convolutions, then global pooling)
     image_embedding_dim: int = 64
+    # a free-wrist dataset (action base.x/y/z, state palm.x/y/z): positions and the base target relative to the
+    # palm (policies/bc/palm_frame.py); no effect on other datasets
+    palm_frame: bool = True
+    palm_frame_scale_m: float = 0.01  # the base target's loss counts its error per this much (see palm_frame.py)
+
+    # the dataset's feature names, filled by LeRobot's make_policy (set_dataset_feature_metadata)
+    state_feature_names: list[str] | None = None
+    environment_state_feature_names: list[str] | None = None
+    action_feature_names: list[str] | None = None
 
     # training preset (lerobot-train uses it too)
     optimizer_lr: float = 1e-3
@@ -79,6 +88,13 @@ class BCConfig(PreTrainedConfig):
             peak_lr=self.optimizer_lr,
             decay_lr=self.scheduler_decay_lr,
         )
+
+    def set_dataset_feature_metadata(self, features: dict) -> None:
+        """Keep the names of the vector features (LeRobot's make_policy calls this with the dataset's)."""
+        names = lambda key: list(features[key]["names"]) if features.get(key, {}).get("names") else None  # noqa: E731
+        self.state_feature_names = names(OBS_STATE)
+        self.environment_state_feature_names = names(OBS_ENV_STATE)
+        self.action_feature_names = names(ACTION)
 
     def validate_features(self) -> None:
         """Keep the inputs the policy reads (state, environment state, images) and check there is one."""

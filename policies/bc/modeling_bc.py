@@ -20,6 +20,7 @@ from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
 from torch import Tensor, nn
 
 from policies.bc.configuration_bc import POLICY_TYPE, BCConfig
+from policies.bc.palm_frame import PalmFrame, palm_frame_indices
 
 
 class ImageEncoder(nn.Module):
@@ -65,6 +66,13 @@ class BCPolicy(PreTrainedPolicy):
             width = config.hidden_dim
         self.mlp = nn.Sequential(*layers)
         self.head = nn.Linear(width, config.chunk_size * self.action_dim)
+        frame = palm_frame_indices(
+            config.state_feature_names, config.environment_state_feature_names, config.action_feature_names
+        )
+        use_frame = config.palm_frame and frame is not None and OBS_STATE in self.vector_keys
+        self.palm_frame = (
+            PalmFrame(*frame, kwargs.get("dataset_stats"), config.palm_frame_scale_m) if use_frame else None
+        )
         self.temporal_ensembler = (
             ACTTemporalEnsembler(config.temporal_ensemble_coeff, config.chunk_size)
             if config.temporal_ensemble_coeff is not None
@@ -81,11 +89,20 @@ class BCPolicy(PreTrainedPolicy):
             self.temporal_ensembler.reset()
         self._queue = deque(maxlen=self.config.n_action_steps)
 
+    def adopt_stats(self, stats: dict) -> None:
+        """The statistics the processors normalise with, where the model needs them too (the palm frame)."""
+        if self.palm_frame is not None:
+            self.palm_frame.adopt(stats)
+
     def _chunk(self, batch: dict[str, Tensor]) -> Tensor:
-        parts = [batch[k].flatten(1) for k in self.vector_keys]
+        vectors = {k: batch[k].flatten(1) for k in self.vector_keys}
+        if self.palm_frame is not None:
+            vectors, palm = self.palm_frame.inputs(vectors)
+        parts = [vectors[k] for k in self.vector_keys]
         parts += [enc(batch[k]) for enc, k in zip(self.encoders, self.image_keys)]
         x = self.mlp(torch.cat(parts, dim=-1))
-        return self.head(x).view(-1, self.config.chunk_size, self.action_dim)
+        chunk = self.head(x).view(-1, self.config.chunk_size, self.action_dim)
+        return chunk if self.palm_frame is None else self.palm_frame.outputs(chunk, palm)
 
     @torch.no_grad()
     def predict_action_chunk(self, batch: dict[str, Tensor], **kwargs) -> Tensor:
@@ -110,6 +127,8 @@ class BCPolicy(PreTrainedPolicy):
             target = target.unsqueeze(1)
         pred = self._chunk(batch)[:, : target.shape[1]]
         err = F.l1_loss(pred, target, reduction="none")
+        if self.palm_frame is not None:
+            err = err * self.palm_frame.loss_weights(self.action_dim)
         if "action_is_pad" in batch:
             keep = (~batch["action_is_pad"]).unsqueeze(-1).to(err.dtype)
             loss = (err * keep).sum() / (keep.sum() * err.shape[-1]).clamp(min=1.0)

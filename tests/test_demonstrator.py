@@ -94,3 +94,8 @@ def test_a_correction_goes_into_a_hold_and_keeps_what_was_performed():
     assert plan.duration == pytest.approx(2.9)  # the release 0.4 s later
     turned = quat.mul(quat.conj(motion().at([2.9]).palm_quat[0]), plan.at([3.3]).palm_quat[0])
     assert np.degrees(2 * np.arccos(min(abs(turned[0]), 1.0))) == pytest.approx(np.degrees(0.5), abs=0.1)
+    # after the plan's end (a watching demonstrator late under load): a move from where the plan ended
+    plan = DemoMotion(times, poses, np.random.default_rng(3), 100.0, palm_deg=0.0, palm_pos=(0.0, 0.0, 0.1))
+    assert plan.revise(3.0, 0.5, move=(0.02, 0.0, 0.0)) == 3.0
+    np.testing.assert_allclose(plan.palm_positions[-1], (0.02, 0.0, 0.1))
+    assert plan.duration == pytest.approx(3.5)

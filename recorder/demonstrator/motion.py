@@ -83,9 +83,9 @@ class DemoMotion(SampledMotion):
             raise ValueError(f"a correction at {at_s:.2f} s falls inside a move, not a hold")
         delta = np.asarray(palm_delta, float)
         pose, turn = self.keyframe_angles([at_s])[0], self._keyframes([at_s], self.palm_turns)[0]
+        at, move = self._keyframes([at_s], self.palm_positions)[0], np.asarray(move, float)  # before the times move
         self.times = np.concatenate((self.times[:k], [at_s, at_s + duration_s], self.times[k:] + duration_s))
         self.poses = np.concatenate((self.poses[:k], [pose, pose], self.poses[k:]))
-        at, move = self._keyframes([at_s], self.palm_positions)[0], np.asarray(move, float)
         self.palm_positions = np.concatenate((self.palm_positions[:k], [at, at + move], self.palm_positions[k:] + move))
         self.palm_turns = np.concatenate((self.palm_turns[:k], [turn, turn + delta], self.palm_turns[k:] + delta))
         return at_s

@@ -17,7 +17,7 @@ from recorder.argtypes import positive_float, positive_int
 from recorder.calibrate import cli as calibrate_cli
 from recorder.glove.config import SPECS, GloveConfig
 from recorder.hub import cli as hub_cli
-from recorder.record import cli as record_cli, inspect as inspect_cli
+from recorder.record import cli as record_cli, edit as edit_cli, inspect as inspect_cli
 from recorder.view import cli as view_cli
 
 PORT_HELP = f"the glove: {SPECS}"
@@ -110,6 +110,7 @@ def build_parser() -> argparse.ArgumentParser:
     record_cli.add_parsers(sub)
     record_cli.add_rerecord_parser(sub)
     inspect_cli.add_parsers(sub)
+    edit_cli.add_parsers(sub)
     hub_cli.add_parsers(sub)
     policies_cli.add_parsers(sub)
     return p

@@ -1,0 +1,287 @@
+"""`gloverec edit`: curate a recorded dataset without a browser: delete episodes, trim an episode's start or end,
+relabel an episode's success. The source is never changed: the result is a new dataset folder (``--out``) or, for
+a hub dataset, the hub's next version (the old ones kept).
+
+    gloverec edit --repo-id USER/NAME [--root DIR | --hub DIR [--version vN]] [--out DIR]
+                  [--delete 3,7] [--trim 2:0.5-end] [--success 4:no] [--json]
+
+The kept episodes are written again through LeRobot's own writer (``LeRobotDataset.create``, ``add_frame``,
+``save_episode``): re-indexed from 0, timestamps from 0 in a trimmed episode, statistics recomputed, camera videos
+re-encoded; plain ``LeRobotDataset`` loads the result. (LeRobot's dataset_tools delete episodes but cannot trim
+inside one; one path for both keeps the two consistent.) gloverec's episode records (meta/gloverec/episodes.jsonl:
+seed, success, glove figures) follow their episodes; an episode trimmed at its start loses its seed (a replay
+starts at the reset, which that episode no longer does); the other files of meta/gloverec/ are copied.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import shutil
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from recorder import GloverecError
+from recorder.dataset_check import check_dataset
+from recorder.record.sidecar import SIDECAR, read_sidecar
+from recorder.video_backend import video_backend
+
+_TRIM = re.compile(r"^(\d+):(\d+(?:\.\d*)?)?-(\d+(?:\.\d*)?|end)?$")
+_SUCCESS = {"yes": True, "true": True, "1": True, "no": False, "false": False, "0": False}
+_LEROBOT_OWN = ("timestamp", "frame_index", "episode_index", "index", "task_index")
+
+
+@dataclass
+class Edits:
+    """What to change, by the source's episode indices."""
+
+    delete: set[int] = field(default_factory=set)
+    trim: dict[int, tuple[float, float | None]] = field(default_factory=dict)  # (start s, end s or None: the end)
+    success: dict[int, bool] = field(default_factory=dict)
+
+    @classmethod
+    def parse(cls, delete: str | None, trims: list[str], successes: list[str]) -> Edits:
+        edits = cls()
+        for part in (delete or "").split(","):
+            part = part.strip()
+            if not part:
+                continue
+            m = re.fullmatch(r"(\d+)(?:-(\d+))?", part)
+            if m is None:
+                raise GloverecError(f"bad --delete {delete!r}: expected episode indices such as 3,7 or 10-14")
+            first, last = int(m[1]), int(m[2] or m[1])
+            if last < first:
+                raise GloverecError(f"bad --delete range {part!r}: the end comes before the start")
+            edits.delete.update(range(first, last + 1))
+        for text in trims:
+            m = _TRIM.match(text.replace(" ", ""))
+            if m is None:
+                raise GloverecError(
+                    f"bad --trim {text!r}: expected EPISODE:START-END in seconds, e.g. 2:0.5-end or 4:0-6.2"
+                )
+            start = float(m[2] or 0.0)
+            end = None if m[3] in (None, "end") else float(m[3])
+            if end is not None and end <= start:
+                raise GloverecError(f"--trim {text}: trims episode {m[1]} to nothing (the end is not after the start)")
+            edits.trim[int(m[1])] = (start, end)
+        for text in successes:
+            episode, _, verdict = text.partition(":")
+            if not episode.isdigit() or verdict.lower() not in _SUCCESS:
+                raise GloverecError(f"bad --success {text!r}: expected EPISODE:yes or EPISODE:no")
+            edits.success[int(episode)] = _SUCCESS[verdict.lower()]
+        both = sorted(edits.delete & (set(edits.trim) | set(edits.success)))
+        if both:
+            raise GloverecError(f"episode {both[0]} is both deleted and trimmed or relabelled: which is it?")
+        return edits
+
+    def __bool__(self) -> bool:
+        return bool(self.delete or self.trim or self.success)
+
+    def describe(self) -> str:
+        parts = []
+        if self.delete:
+            parts.append(f"deleted {', '.join(map(str, sorted(self.delete)))}")
+        for e, (a, b) in sorted(self.trim.items()):
+            parts.append(f"trimmed {e} to {a:g}-{'end' if b is None else f'{b:g}'} s")
+        for e, ok in sorted(self.success.items()):
+            parts.append(f"{e} relabelled {'successful' if ok else 'failed'}")
+        return "; ".join(parts)
+
+
+def frame_ranges(lengths: dict[int, int], fps: float, edits: Edits) -> dict[int, range]:
+    """Each kept source episode's frames (0-based within the episode), in order; checked against the dataset."""
+    named = sorted(edits.delete | set(edits.trim) | set(edits.success))
+    unknown = [e for e in named if e not in lengths]
+    if unknown:
+        raise GloverecError(
+            f"no episode {unknown[0]}: the dataset has episodes 0-{max(lengths)}" if lengths else "the dataset is empty"
+        )
+    kept = {e: range(n) for e, n in sorted(lengths.items()) if e not in edits.delete}
+    if not kept:
+        raise GloverecError(f"--delete would remove every episode ({len(lengths)}): nothing would be left")
+    for e, (start, end) in edits.trim.items():
+        n = lengths[e]
+        first = math.ceil(start * fps - 1e-6)
+        stop = n if end is None else min(n, math.floor(end * fps + 1e-6) + 1)
+        if first >= stop:
+            raise GloverecError(f"--trim {e}: episode {e} is {n / fps:.2f} s long; {start:g} s onwards leaves nothing")
+        kept[e] = range(first, stop)
+    return kept
+
+
+def edit_dataset(src: Path, out: Path, repo_id: str, edits: Edits, progress: bool = True) -> dict:
+    """Write the edited copy of the dataset at ``src`` into the new folder ``out``; a summary."""
+    import datasets
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset  # lerobot: not at start-up
+    from tqdm import tqdm
+
+    datasets.disable_progress_bars()  # a "Map" bar per episode
+
+    t0 = time.perf_counter()
+    source = LeRobotDataset(repo_id, root=src, video_backend=video_backend())
+    meta = source.meta
+    episodes = meta.episodes
+    lengths = {int(e): int(n) for e, n in zip(episodes["episode_index"], episodes["length"])}
+    starts = {int(e): int(i) for e, i in zip(episodes["episode_index"], episodes["dataset_from_index"])}
+    kept = frame_ranges(lengths, meta.fps, edits)
+    records = {int(r["episode_index"]): r for r in read_sidecar(src)}
+
+    features = {k: v for k, v in meta.features.items() if k not in _LEROBOT_OWN}
+    images = [k for k, v in features.items() if v["dtype"] in ("video", "image")]
+    data = source.hf_dataset.with_format(None)  # the stored columns, no video decoding
+    tasks = {int(i): t for t, i in zip(meta.tasks.index, meta.tasks["task_index"])}
+    target = LeRobotDataset.create(
+        repo_id, meta.fps, features, root=out, robot_type=meta.robot_type, use_videos=bool(meta.video_keys),
+        video_backend=video_backend(),
+    )  # fmt: skip
+    new_records = []
+    bar = tqdm(total=sum(len(r) for r in kept.values()), desc="writing", unit="frame", disable=not progress,
+               file=sys.stderr)  # fmt: skip
+    try:
+        for new_index, (e, frames) in enumerate(kept.items()):
+            rows = data[starts[e] + frames.start : starts[e] + frames.stop]  # columns of the kept frames
+            if images:  # camera frames go through LeRobot's image writer and video encoder, frame by frame
+                for k in frames:
+                    item = source[starts[e] + k]  # decodes the camera frames: (C, H, W) float in [0, 1]
+                    frame = {
+                        key: _value(data[starts[e] + k][key], features[key]) for key in features if key not in images
+                    }
+                    for key in images:
+                        frame[key] = (item[key].permute(1, 2, 0).numpy() * 255.0).round().astype(np.uint8)
+                    target.add_frame({**frame, "task": tasks[int(item["task_index"])]})
+                    bar.update()
+                target.save_episode()
+            else:  # vectors only: the whole episode at once (LeRobot's save_episode takes a built episode)
+                n = len(frames)
+                episode = {key: [_value(v, features[key]) for v in rows[key]] for key in features}
+                episode.update(size=n, task=[tasks[int(t)] for t in rows["task_index"]], episode_index=new_index)
+                episode.update(frame_index=np.arange(n), timestamp=np.arange(n) / meta.fps, index=[], task_index=[])
+                target.save_episode(episode_data=episode)
+                bar.update(n)
+            record = records.get(e)
+            if record is not None:
+                first = {key: rows[key][0] for key in rows}
+                new_records.append(_record(record, new_index, len(frames), first, e, edits))
+    finally:
+        bar.close()
+        target.finalize()
+    _write_meta(src, out, new_records)
+    return {
+        "source": str(src),
+        "out": str(out),
+        "episodes": len(kept),
+        "frames": int(sum(len(r) for r in kept.values())),
+        "source_episodes": len(lengths),
+        "edits": edits.describe(),
+        "episode_map": {str(e): j for j, e in enumerate(kept)},
+        "records_carried": len(new_records),
+        "wall_s": round(time.perf_counter() - t0, 2),
+    }
+
+
+def _value(value, feature: dict):
+    if feature["dtype"] == "string":
+        return value
+    array = np.asarray(value, dtype=feature["dtype"])
+    return array.reshape(feature["shape"])
+
+
+def _record(record: dict, index: int, frames: int, first_row: dict, source_index: int, edits: Edits) -> dict:
+    out = {**record, "episode_index": index, "frames": frames}
+    if "time.device_s" in first_row:
+        out["start_device_time_s"] = float(np.asarray(first_row["time.device_s"]).reshape(-1)[0])
+    if source_index in edits.trim:
+        start, end = edits.trim[source_index]
+        out["trimmed_s"] = [start, end]
+        if start > 0:
+            out.pop("seed", None)  # a replay starts at the reset; this episode no longer does
+    if source_index in edits.success:
+        out["success"] = edits.success[source_index]
+    out["edited_from"] = source_index
+    return out
+
+
+def _write_meta(src: Path, out: Path, records: list[dict]) -> None:
+    """meta/gloverec/ of the edited dataset: the episode records re-indexed, the other files copied."""
+    mine, theirs = out / SIDECAR, src / SIDECAR
+    if theirs.parent.is_dir():
+        for f in theirs.parent.iterdir():
+            if f.is_file() and f.name != theirs.name:
+                mine.parent.mkdir(parents=True, exist_ok=True)
+                shutil.copy2(f, mine.parent / f.name)
+    if records:
+        mine.parent.mkdir(parents=True, exist_ok=True)
+        mine.write_text("".join(json.dumps(r) + "\n" for r in records))
+
+
+def add_parsers(sub) -> None:
+    p = sub.add_parser(
+        "edit",
+        help="delete, trim or relabel episodes: a new dataset folder or the hub's next version",
+        description="Curate a dataset: delete episodes, trim an episode's start or end, relabel its success. The "
+        "source is not changed: the result goes to --out, or for a hub dataset to the hub's next version.",
+    )
+    p.add_argument("--repo-id", required=True, help="dataset id, USER/NAME")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--root", help="a recording folder (default datasets/recordings/USER/NAME)")
+    where.add_argument("--hub", help="a local hub folder: edit its version of the dataset")
+    p.add_argument("--version", help="with --hub: the version to edit, vN (default: the newest)")
+    p.add_argument("--out", help="the edited dataset, a new folder (default with --hub: the hub's next version)")
+    p.add_argument("--delete", metavar="EPISODES", help="episodes to delete, e.g. 3,7 or 10-14")
+    p.add_argument("--trim", action="append", default=[], metavar="EP:START-END",
+                   help="keep only START-END seconds of episode EP (END may be 'end'); repeatable")  # fmt: skip
+    p.add_argument("--success", action="append", default=[], metavar="EP:yes|no",
+                   help="relabel episode EP successful or failed; repeatable")  # fmt: skip
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from recorder.record.inspect import dataset_root
+
+    edits = Edits.parse(args.delete, args.trim, args.success)
+    if not edits:
+        raise GloverecError("nothing to do: pass --delete, --trim or --success")
+    if args.version and not args.hub:
+        raise GloverecError("--version names a hub version: pass --hub too")
+    hub = None
+    if args.hub is not None:
+        from recorder.hub.store import Hub
+
+        hub = Hub(args.hub)
+        src = hub.checked(args.repo_id, args.version).path
+    else:
+        src = dataset_root(args.repo_id, args.root, None)
+        if args.out is None:
+            raise GloverecError("pass --out DIR: a recording is not edited in place (or --hub for a hub dataset)")
+    if not src.exists():
+        raise GloverecError(f"no dataset at {src}")
+    check_dataset(src)
+    out = Path(args.out) if args.out else None
+    if out is not None and (out.exists() or out.is_symlink()):
+        raise GloverecError(f"{out} already exists: edit into a new folder")
+    with tempfile.TemporaryDirectory(prefix="gloverec-edit-", dir=None if out else hub.root) as tmp:
+        folder = out or Path(tmp) / "edited"
+        try:
+            summary = edit_dataset(src, folder, args.repo_id, edits, progress=not args.json)
+        except BaseException:
+            if out is not None:
+                shutil.rmtree(out, ignore_errors=True)  # nothing half-written left behind
+            raise
+        if out is None:
+            version = hub.push(folder, args.repo_id)
+            summary["out"] = str(version.path)
+            summary["version"] = version.tag
+    if args.json:
+        print(json.dumps(summary), flush=True)
+    else:
+        where = f"{args.repo_id} {summary['version']}" if "version" in summary else summary["out"]
+        print(f"{where}: {summary['episodes']} episodes, {summary['frames']} frames ({summary['edits']}; "
+              f"from {summary['source_episodes']} episodes of {src})")  # fmt: skip
+    return 0

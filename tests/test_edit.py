@@ -1,0 +1,105 @@
+"""`gloverec edit` (issue 26's curation without a browser): delete, trim and relabel episodes into a new dataset or
+the hub's next version, with gloverec's episode records following their episodes; bad edits are one line and
+change nothing."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+from conftest import POSE_REPO, cli
+from recorder.record.sidecar import read_sidecar
+
+
+def _frames(ds: LeRobotDataset, episode: int) -> dict[str, np.ndarray]:
+    rows = ds.hf_dataset.with_format(None)
+    ep = ds.meta.episodes[episode]
+    part = rows[int(ep["dataset_from_index"]) : int(ep["dataset_to_index"])]
+    return {k: np.asarray(part[k]) for k in ("observation.state", "action", "timestamp")}
+
+
+def test_edit_deletes_trims_and_relabels_into_a_new_dataset(pose_recording, tmp_path):
+    src, _ = pose_recording
+    out = tmp_path / "edited"
+    r = cli("edit", "--repo-id", POSE_REPO, "--root", str(src), "--out", str(out), "--delete", "1",
+            "--trim", "2:0.5-end", "--trim", "3:0-1", "--success", "0:no", "--json")  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    summary = json.loads(r.stdout)
+    assert summary["episode_map"] == {"0": 0, "2": 1, "3": 2}
+
+    before, after = LeRobotDataset(POSE_REPO, root=src), LeRobotDataset(POSE_REPO, root=out)
+    assert after.num_episodes == 3 and after.meta.total_frames == len(after)
+    fps = before.meta.fps
+    same, trimmed_start, trimmed_end = _frames(after, 0), _frames(after, 1), _frames(after, 2)
+    np.testing.assert_array_equal(same["action"], _frames(before, 0)["action"])
+    first = int(np.ceil(0.5 * fps))
+    np.testing.assert_array_equal(trimmed_start["observation.state"], _frames(before, 2)["observation.state"][first:])
+    assert trimmed_start["timestamp"][0] == 0.0  # the trimmed episode's clock starts again at 0
+    assert len(trimmed_end["action"]) == int(1.0 * fps) + 1
+    np.testing.assert_array_equal(trimmed_end["action"], _frames(before, 3)["action"][: int(fps) + 1])
+
+    records = {r["episode_index"]: r for r in read_sidecar(out)}  # every record matches its episode
+    assert sorted(records) == [0, 1, 2]
+    assert records[0]["success"] is False and records[0]["seed"] == 0
+    assert "seed" not in records[1] and records[1]["trimmed_s"] == [0.5, None]  # cannot replay from the reset
+    assert records[2]["seed"] == 3 and records[2]["frames"] == len(trimmed_end["action"])
+    assert LeRobotDataset(POSE_REPO, root=src).num_episodes == 4  # the source is untouched
+
+    replayed = cli("replay", "--repo-id", POSE_REPO, "--root", str(out), "--episode", "2", "--json")
+    assert replayed.returncode == 0 and json.loads(replayed.stdout)["reproduced"], replayed.stderr
+
+
+def test_edit_on_the_hub_publishes_the_next_version_and_keeps_the_old(pose_recording, tmp_path):
+    src, _ = pose_recording
+    hub = tmp_path / "hub"
+    assert cli("push", "--repo-id", POSE_REPO, "--root", str(src), "--hub", str(hub)).returncode == 0
+    r = cli("edit", "--repo-id", POSE_REPO, "--hub", str(hub), "--delete", "0,3")
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.startswith(f"{POSE_REPO} v2: 2 episodes"), r.stdout
+    assert LeRobotDataset(POSE_REPO, root=hub / f"{POSE_REPO}@v1").num_episodes == 4
+    assert LeRobotDataset(POSE_REPO, root=hub / POSE_REPO).num_episodes == 2  # the link: the newest
+    verified = cli("hub", "verify", "--hub", str(hub), "--json")
+    assert verified.returncode == 0, verified.stdout + verified.stderr
+    trained = cli("train", "--repo-id", POSE_REPO, "--hub", str(hub), "--steps", "2", "--batch-size", "8",
+                  "--out", str(tmp_path / "run"), "--json")  # fmt: skip
+    assert trained.returncode == 0 and json.loads(trained.stdout)["train_episodes"] >= 1, trained.stderr
+
+
+@pytest.mark.parametrize(
+    ("edit", "says"),
+    [
+        (["--delete", "0-3"], "would remove every episode (4)"),
+        (["--trim", "1:9-end"], "leaves nothing"),
+        (["--trim", "1:2-1"], "trims episode 1 to nothing"),
+        (["--delete", "7"], "no episode 7: the dataset has episodes 0-3"),
+        (["--delete", "one"], "bad --delete"),
+        (["--success", "2:maybe"], "bad --success"),
+        (["--delete", "2", "--success", "2:no"], "episode 2 is both deleted"),
+        ([], "nothing to do"),
+    ],
+)
+def test_a_bad_edit_is_one_line_and_changes_nothing(pose_recording, tmp_path, edit, says):
+    src, _ = pose_recording
+    out = tmp_path / "edited"
+    r = cli("edit", "--repo-id", POSE_REPO, "--root", str(src), "--out", str(out), *edit)
+    assert r.returncode != 0 and says in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert not out.exists()
+
+
+def test_edit_refuses_an_existing_output_and_a_recording_in_place(pose_recording, tmp_path):
+    src, _ = pose_recording
+    (tmp_path / "taken").mkdir()
+    r = cli("edit", "--repo-id", POSE_REPO, "--root", str(src), "--out", str(tmp_path / "taken"), "--delete", "1")
+    assert r.returncode != 0 and "already exists" in r.stderr
+    r = cli("edit", "--repo-id", POSE_REPO, "--root", str(src), "--delete", "1")
+    assert r.returncode != 0 and "pass --out DIR" in r.stderr
+    copy = tmp_path / "copy"
+    shutil.copytree(src, copy)
+    (copy / "meta" / "info.json").unlink()
+    (copy / "meta" / "info.json").write_text("{")  # a damaged dataset
+    r = cli("edit", "--repo-id", POSE_REPO, "--root", str(copy), "--out", str(tmp_path / "o"), "--delete", "1")
+    assert r.returncode != 0 and len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr, r.stderr

@@ -17,7 +17,7 @@ from recorder.argtypes import positive_float, positive_int
 from recorder.calibrate import cli as calibrate_cli
 from recorder.glove.config import SPECS, GloveConfig
 from recorder.hub import cli as hub_cli
-from recorder.record import cli as record_cli, edit as edit_cli, inspect as inspect_cli
+from recorder.record import cli as record_cli, inspect as inspect_cli
 from recorder.view import cli as view_cli
 
 PORT_HELP = f"the glove: {SPECS}"
@@ -110,7 +110,7 @@ def build_parser() -> argparse.ArgumentParser:
     record_cli.add_parsers(sub)
     record_cli.add_rerecord_parser(sub)
     inspect_cli.add_parsers(sub)
-    edit_cli.add_parsers(sub)
+    _edit_parser(sub)
     hub_cli.add_parsers(sub)
     policies_cli.add_parsers(sub)
     return p
@@ -214,6 +214,79 @@ def cmd_monitor(args) -> int:
         except KeyboardInterrupt:
             pass
     return _finish(monitor, args, "link")
+
+
+def _edit_parser(sub) -> None:
+    """`gloverec edit` (recorder/record/edit.py; here because it may publish to the hub, a layer of its own)."""
+    p = sub.add_parser(
+        "edit",
+        help="delete, trim or relabel episodes: a new dataset folder or the hub's next version",
+        description="Curate a dataset: delete episodes, trim an episode's start or end, relabel its success. The "
+        "source is not changed: the result goes to --out, or for a hub dataset to the hub's next version.",
+    )
+    p.add_argument("--repo-id", required=True, help="dataset id, USER/NAME")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--root", help="a recording folder (default datasets/recordings/USER/NAME)")
+    where.add_argument("--hub", help="a local hub folder: edit its version of the dataset")
+    p.add_argument("--version", help="with --hub: the version to edit, vN (default: the newest)")
+    p.add_argument("--out", help="the edited dataset, a new folder (default with --hub: the hub's next version)")
+    p.add_argument("--delete", metavar="EPISODES", help="episodes to delete, e.g. 3,7 or 10-14")
+    p.add_argument("--trim", action="append", default=[], metavar="EP:START-END",
+                   help="keep only START-END seconds of episode EP (END may be 'end'); repeatable")  # fmt: skip
+    p.add_argument("--success", action="append", default=[], metavar="EP:yes|no",
+                   help="relabel episode EP successful or failed; repeatable")  # fmt: skip
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=cmd_edit)
+
+
+def cmd_edit(args) -> int:
+    import shutil
+    import tempfile
+    from pathlib import Path
+
+    from recorder.dataset_check import check_dataset
+    from recorder.hub.store import Hub  # pyarrow: not at start-up
+    from recorder.record.edit import Edits, edit_dataset
+    from recorder.record.inspect import dataset_root
+
+    edits = Edits.parse(args.delete, args.trim, args.success)
+    if not edits:
+        raise GloverecError("nothing to do: pass --delete, --trim or --success")
+    if args.version and not args.hub:
+        raise GloverecError("--version names a hub version: pass --hub too")
+    hub = None
+    if args.hub is not None:
+        hub = Hub(args.hub)
+        src = hub.checked(args.repo_id, args.version).path
+    else:
+        src = dataset_root(args.repo_id, args.root, None)
+        if args.out is None:
+            raise GloverecError("pass --out DIR: a recording is not edited in place (or --hub for a hub dataset)")
+    if not src.exists():
+        raise GloverecError(f"no dataset at {src}")
+    check_dataset(src)
+    out = Path(args.out) if args.out else None
+    if out is not None and (out.exists() or out.is_symlink()):
+        raise GloverecError(f"{out} already exists: edit into a new folder")
+    with tempfile.TemporaryDirectory(prefix="gloverec-edit-", dir=None if out else hub.root) as tmp:
+        folder = out or Path(tmp) / "edited"
+        try:
+            summary = edit_dataset(src, folder, args.repo_id, edits, progress=not args.json)
+        except BaseException:
+            if out is not None:
+                shutil.rmtree(out, ignore_errors=True)  # nothing half-written left behind
+            raise
+        if out is None:
+            version = hub.push(folder, args.repo_id)
+            summary["out"] = str(version.path)
+            summary["version"] = version.tag
+    if args.json:
+        print(json.dumps(summary), flush=True)
+    else:
+        where = f"{args.repo_id} {summary['version']}" if "version" in summary else summary["out"]
+        print(f"{where}: {summary['episodes']} episodes, {summary['frames']} frames ({summary['edits']}; "
+              f"from {summary['source_episodes']} episodes of {src})")  # fmt: skip
+    return 0
 
 
 def cmd_wrist(args) -> int:

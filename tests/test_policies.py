@@ -396,3 +396,16 @@ def test_a_camera_dataset_trains_an_image_policy_that_eval_gives_its_camera(tmp_
     assert result["episodes"] == 1 and Path(result["videos"][0]).stat().st_size > 1000
     replayed = replay(resolve("test/cam", root=root), 1)  # states only: no video is decoded
     assert replayed["reproduced"] and replayed["max_abs"] == 0.0
+
+    # gloverec edit on a camera dataset: the trimmed episode's frames decoded and encoded again, still its own
+    edited = tmp_path / "cam_edited"
+    r = cli("edit", "--repo-id", "test/cam", "--root", str(root), "--out", str(edited), "--trim", "1:0.5-end")
+    assert r.returncode == 0, r.stderr
+    before, after = LeRobotDataset("test/cam", root=root), LeRobotDataset("test/cam", root=edited)
+    skip = int(np.ceil(0.5 * before.meta.fps))
+    assert after.num_episodes == 2 and after.meta.episodes[1]["length"] == before.meta.episodes[1]["length"] - skip
+    first_kept = before[int(before.meta.episodes[1]["dataset_from_index"]) + skip]["observation.images.front"]
+    first_now = after[int(after.meta.episodes[1]["dataset_from_index"])]["observation.images.front"]
+    later = before[int(before.meta.episodes[1]["dataset_to_index"]) - 1]["observation.images.front"]
+    same, other = (first_now - first_kept).abs().mean(), (first_now - later).abs().mean()  # 0.004 vs 0.018 here
+    assert same < 0.01 and 3 * same < other, (same, other)  # the kept frame (through a second encoding)

@@ -1,16 +1,14 @@
-"""`gloverec edit`: curate a recorded dataset without a browser: delete episodes, trim an episode's start or end,
-relabel an episode's success. The source is never changed: the result is a new dataset folder (``--out``) or, for
-a hub dataset, the hub's next version (the old ones kept).
+"""Curating a recorded dataset (`gloverec edit`, its command in recorder/cli.py): delete episodes, trim an
+episode's start or end, relabel an episode's success. The source is never changed: the result is a new dataset
+folder (the command publishes it as a hub's next version when the source is in a hub).
 
-    gloverec edit --repo-id USER/NAME [--root DIR | --hub DIR [--version vN]] [--out DIR]
-                  [--delete 3,7] [--trim 2:0.5-end] [--success 4:no] [--json]
-
-The kept episodes are written again through LeRobot's own writer (``LeRobotDataset.create``, ``add_frame``,
-``save_episode``): re-indexed from 0, timestamps from 0 in a trimmed episode, statistics recomputed, camera videos
-re-encoded; plain ``LeRobotDataset`` loads the result. (LeRobot's dataset_tools delete episodes but cannot trim
-inside one; one path for both keeps the two consistent.) gloverec's episode records (meta/gloverec/episodes.jsonl:
-seed, success, glove figures) follow their episodes; an episode trimmed at its start loses its seed (a replay
-starts at the reset, which that episode no longer does); the other files of meta/gloverec/ are copied.
+The kept episodes are written again through LeRobot's own writer (``LeRobotDataset.create``, ``save_episode``; a
+vector-only episode handed over whole, camera frames one by one through ``add_frame`` and its video encoder):
+re-indexed from 0, timestamps from 0 in a trimmed episode, statistics recomputed; plain ``LeRobotDataset`` loads
+the result. (LeRobot's dataset_tools delete episodes but cannot trim inside one: one writer for both keeps them
+consistent.) gloverec's episode records (meta/gloverec/episodes.jsonl: seed, success, glove figures) follow their
+episodes; an episode trimmed at its start loses its seed (a replay starts at the reset, which that episode no longer
+does); the other files of meta/gloverec/ are copied.
 """
 
 from __future__ import annotations
@@ -20,7 +18,6 @@ import math
 import re
 import shutil
 import sys
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,7 +25,6 @@ from pathlib import Path
 import numpy as np
 
 from recorder import GloverecError
-from recorder.dataset_check import check_dataset
 from recorder.record.sidecar import SIDECAR, read_sidecar
 from recorder.video_backend import video_backend
 
@@ -218,70 +214,3 @@ def _write_meta(src: Path, out: Path, records: list[dict]) -> None:
     if records:
         mine.parent.mkdir(parents=True, exist_ok=True)
         mine.write_text("".join(json.dumps(r) + "\n" for r in records))
-
-
-def add_parsers(sub) -> None:
-    p = sub.add_parser(
-        "edit",
-        help="delete, trim or relabel episodes: a new dataset folder or the hub's next version",
-        description="Curate a dataset: delete episodes, trim an episode's start or end, relabel its success. The "
-        "source is not changed: the result goes to --out, or for a hub dataset to the hub's next version.",
-    )
-    p.add_argument("--repo-id", required=True, help="dataset id, USER/NAME")
-    where = p.add_mutually_exclusive_group()
-    where.add_argument("--root", help="a recording folder (default datasets/recordings/USER/NAME)")
-    where.add_argument("--hub", help="a local hub folder: edit its version of the dataset")
-    p.add_argument("--version", help="with --hub: the version to edit, vN (default: the newest)")
-    p.add_argument("--out", help="the edited dataset, a new folder (default with --hub: the hub's next version)")
-    p.add_argument("--delete", metavar="EPISODES", help="episodes to delete, e.g. 3,7 or 10-14")
-    p.add_argument("--trim", action="append", default=[], metavar="EP:START-END",
-                   help="keep only START-END seconds of episode EP (END may be 'end'); repeatable")  # fmt: skip
-    p.add_argument("--success", action="append", default=[], metavar="EP:yes|no",
-                   help="relabel episode EP successful or failed; repeatable")  # fmt: skip
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(func=run)
-
-
-def run(args) -> int:
-    from recorder.record.inspect import dataset_root
-
-    edits = Edits.parse(args.delete, args.trim, args.success)
-    if not edits:
-        raise GloverecError("nothing to do: pass --delete, --trim or --success")
-    if args.version and not args.hub:
-        raise GloverecError("--version names a hub version: pass --hub too")
-    hub = None
-    if args.hub is not None:
-        from recorder.hub.store import Hub
-
-        hub = Hub(args.hub)
-        src = hub.checked(args.repo_id, args.version).path
-    else:
-        src = dataset_root(args.repo_id, args.root, None)
-        if args.out is None:
-            raise GloverecError("pass --out DIR: a recording is not edited in place (or --hub for a hub dataset)")
-    if not src.exists():
-        raise GloverecError(f"no dataset at {src}")
-    check_dataset(src)
-    out = Path(args.out) if args.out else None
-    if out is not None and (out.exists() or out.is_symlink()):
-        raise GloverecError(f"{out} already exists: edit into a new folder")
-    with tempfile.TemporaryDirectory(prefix="gloverec-edit-", dir=None if out else hub.root) as tmp:
-        folder = out or Path(tmp) / "edited"
-        try:
-            summary = edit_dataset(src, folder, args.repo_id, edits, progress=not args.json)
-        except BaseException:
-            if out is not None:
-                shutil.rmtree(out, ignore_errors=True)  # nothing half-written left behind
-            raise
-        if out is None:
-            version = hub.push(folder, args.repo_id)
-            summary["out"] = str(version.path)
-            summary["version"] = version.tag
-    if args.json:
-        print(json.dumps(summary), flush=True)
-    else:
-        where = f"{args.repo_id} {summary['version']}" if "version" in summary else summary["out"]
-        print(f"{where}: {summary['episodes']} episodes, {summary['frames']} frames ({summary['edits']}; "
-              f"from {summary['source_episodes']} episodes of {src})")  # fmt: skip
-    return 0

@@ -136,6 +136,16 @@ def test_push_skips_scratch_files(hub, sources, tmp_path):
     assert not (v.path / "images").exists() and not (v.path / ".cache").exists() and hub.verify().ok
 
 
+def test_push_refuses_a_folder_holding_another_dataset_and_publishes_nothing(hub, sources, tmp_path):
+    """What lerobot-edit-dataset --new_repo_id without --new_root did to a recording (issue 26): the next push
+    would have published the edited dataset as part of the original's next version, without a word."""
+    src = tmp_path / "src"
+    shutil.copytree(sources["a"], src)
+    shutil.copytree(sources["b"], src / "me" / "grasp_cut")
+    one_line_error(hub.push, src, REPO, needle="holds another dataset inside it (me/grasp_cut/)")
+    assert hub.versions(REPO) == []
+
+
 def test_repush_makes_v2_and_v1_stays_loadable(hub, sources, capsys):
     assert hub.push(sources["a"], REPO).tag == "v1"
     assert rows(hub.root / REPO) == sources["rows_a"]

@@ -62,6 +62,10 @@ def test_records_that_describe_other_episodes_are_ignored_with_a_warning(pose_re
     assert "do not match the dataset's episodes" in r.stderr and "gloverec carry-meta" in r.stderr
     assert cli("train", "--repo-id", "test/cut", "--root", str(cut), "--steps", "5", "--out",
                str(tmp_path / "policy")).returncode == 0  # fmt: skip
+    hub = str(tmp_path / "hub")  # and it publishes and verifies like one of ours
+    assert cli("push", "--repo-id", "test/cut", "--root", str(cut), "--hub", hub).returncode == 0
+    verified = cli("hub", "verify", "--hub", hub)
+    assert verified.returncode == 0, verified.stdout + verified.stderr
 
 
 def test_a_split_merged_back_gets_every_record_from_its_parts(pose_recording, tmp_path):

@@ -165,13 +165,18 @@ class Hub:
         dataset.looks_like_dataset(src)
         if _inside(self.root, src):
             raise GloverecError(f"the hub {self.root} is inside the dataset {src}: use another --hub")
+        taken = manifest.dataset_files(src)
+        nested = sorted(rel.removesuffix("/meta/info.json") for rel in taken if rel.endswith("/meta/info.json"))
+        if nested:  # e.g. lerobot-edit-dataset --new_repo_id writes its result inside the dataset given as --root
+            raise GloverecError(f"{src} holds another dataset inside it ({nested[0]}/): move it out and push each "
+                                "on its own (docs/lerobot.md)")  # fmt: skip
         folder, staging = self.root / user, None
         try:
             folder.mkdir(parents=True, exist_ok=True)
             atomic.clean_stale(folder)
             _clear_link_slot(self.link(repo_id))
             staging = atomic.temp_dir(folder, name)
-            files = manifest.hash_files(src, manifest.dataset_files(src), staging, f"copying {repo_id}")
+            files = manifest.hash_files(src, taken, staging, f"copying {repo_id}")
             info = dataset.check_dataset(staging, shown_as=src)
             version = self._publish(
                 staging,

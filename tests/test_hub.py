@@ -137,8 +137,8 @@ def test_push_skips_scratch_files(hub, sources, tmp_path):
 
 
 def test_push_refuses_a_folder_holding_another_dataset_and_publishes_nothing(hub, sources, tmp_path):
-    """What lerobot-edit-dataset --new_repo_id without --new_root did to a recording (issue 26): the next push
-    would have published the edited dataset as part of the original's next version, without a word."""
+    """What lerobot-edit-dataset 0.4.4's --new_repo_id without --new_root did to a recording (issue 26): the next
+    push would have published the edited dataset as part of the original's next version, without a word."""
     src = tmp_path / "src"
     shutil.copytree(sources["a"], src)
     shutil.copytree(sources["b"], src / "me" / "grasp_cut")

@@ -167,7 +167,7 @@ class Hub:
             raise GloverecError(f"the hub {self.root} is inside the dataset {src}: use another --hub")
         taken = manifest.dataset_files(src)
         nested = sorted(rel.removesuffix("/meta/info.json") for rel in taken if rel.endswith("/meta/info.json"))
-        if nested:  # e.g. lerobot-edit-dataset --new_repo_id writes its result inside the dataset given as --root
+        if nested:  # e.g. lerobot-edit-dataset 0.4.4 --new_repo_id wrote its result inside the --root dataset
             raise GloverecError(f"{src} holds another dataset inside it ({nested[0]}/): move it out and push each "
                                 "on its own (docs/lerobot.md)")  # fmt: skip
         folder, staging = self.root / user, None

@@ -235,6 +235,8 @@ def _edit_parser(sub) -> None:
                    help="keep only START-END seconds of episode EP (END may be 'end'); repeatable")  # fmt: skip
     p.add_argument("--success", action="append", default=[], metavar="EP:yes|no",
                    help="relabel episode EP successful or failed; repeatable")  # fmt: skip
+    p.add_argument("--merge", nargs="+", default=[], metavar="DATASET",
+                   help="then append these dataset folders (gloverec merge: same fps, robot and features)")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=cmd_edit)
 
@@ -247,11 +249,11 @@ def cmd_edit(args) -> int:
     from recorder.dataset_check import check_dataset
     from recorder.hub.store import Hub  # pyarrow: not at start-up
     from recorder.record.edit import Edits, edit_dataset
-    from recorder.record.inspect import dataset_root
+    from recorder.record.inspect import dataset_root, merge
 
     edits = Edits.parse(args.delete, args.trim, args.success)
-    if not edits:
-        raise GloverecError("nothing to do: pass --delete, --trim or --success")
+    if not edits and not args.merge:
+        raise GloverecError("nothing to do: pass --delete, --trim, --success or --merge")
     if args.version and not args.hub:
         raise GloverecError("--version names a hub version: pass --hub too")
     hub = None
@@ -262,30 +264,38 @@ def cmd_edit(args) -> int:
         src = dataset_root(args.repo_id, args.root, None)
         if args.out is None:
             raise GloverecError("pass --out DIR: a recording is not edited in place (or --hub for a hub dataset)")
-    if not src.exists():
-        raise GloverecError(f"no dataset at {src}")
-    check_dataset(src)
+    for folder in (src, *map(Path, args.merge)):
+        if not folder.exists():
+            raise GloverecError(f"no dataset at {folder}")
+        check_dataset(folder)
     out = Path(args.out) if args.out else None
     if out is not None and (out.exists() or out.is_symlink()):
         raise GloverecError(f"{out} already exists: edit into a new folder")
     with tempfile.TemporaryDirectory(prefix="gloverec-edit-", dir=None if out else hub.root) as tmp:
-        folder = out or Path(tmp) / "edited"
+        result = out or Path(tmp) / "result"
         try:
-            summary = edit_dataset(src, folder, args.repo_id, edits, progress=not args.json)
+            first = result if not args.merge else Path(tmp) / "edited" if edits else src
+            if edits:
+                summary = edit_dataset(src, first, args.repo_id, edits, progress=not args.json)
+            else:
+                summary = {"source": str(src), "edits": "", "source_episodes": None}
+            if args.merge:
+                summary.update(merge(result, [first, *map(Path, args.merge)]), merged=args.merge)
         except BaseException:
             if out is not None:
                 shutil.rmtree(out, ignore_errors=True)  # nothing half-written left behind
             raise
+        summary["out"] = str(result)
         if out is None:
-            version = hub.push(folder, args.repo_id)
+            version = hub.push(result, args.repo_id)
             summary["out"] = str(version.path)
             summary["version"] = version.tag
     if args.json:
         print(json.dumps(summary), flush=True)
     else:
         where = f"{args.repo_id} {summary['version']}" if "version" in summary else summary["out"]
-        print(f"{where}: {summary['episodes']} episodes, {summary['frames']} frames ({summary['edits']}; "
-              f"from {summary['source_episodes']} episodes of {src})")  # fmt: skip
+        what = "; ".join(filter(None, (summary["edits"], f"merged {' '.join(args.merge)}" if args.merge else "")))
+        print(f"{where}: {summary['episodes']} episodes, {summary['frames']} frames ({what}; from {src})")
     return 0
 
 

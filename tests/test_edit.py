@@ -103,3 +103,19 @@ def test_edit_refuses_an_existing_output_and_a_recording_in_place(pose_recording
     (copy / "meta" / "info.json").write_text("{")  # a damaged dataset
     r = cli("edit", "--repo-id", POSE_REPO, "--root", str(copy), "--out", str(tmp_path / "o"), "--delete", "1")
     assert r.returncode != 0 and len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr, r.stderr
+
+
+def test_edit_then_merge_appends_other_datasets_with_their_records(pose_recording, tmp_path):
+    src, _ = pose_recording
+    out = tmp_path / "merged"
+    r = cli("edit", "--repo-id", POSE_REPO, "--root", str(src), "--out", str(out), "--delete", "0",
+            "--merge", str(src), "--json")  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    summary = json.loads(r.stdout)
+    assert summary["episodes"] == 3 + 4 and summary["records_carried"] == 7
+    merged = LeRobotDataset(POSE_REPO, root=out)
+    assert merged.num_episodes == 7
+    assert [rec["seed"] for rec in read_sidecar(out)] == [1, 2, 3, 0, 1, 2, 3]
+    np.testing.assert_array_equal(
+        _frames(merged, 3)["action"], _frames(LeRobotDataset(POSE_REPO, root=src), 0)["action"]
+    )

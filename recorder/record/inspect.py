@@ -166,29 +166,34 @@ def run_carry(args) -> int:
 
 
 def run_merge(args) -> int:
-    from lerobot.datasets.dataset_tools import merge_datasets
-    from lerobot.datasets.lerobot_dataset import LeRobotDataset
-
     out = Path(args.root)
     if out.exists():
         raise GloverecError(f"{out} already exists: merge into a new folder")
-    metas = [load_meta(f"local/{Path(src).name}", Path(src)) for src in args.sources]
-    first, src0 = metas[0], args.sources[0]
-    for meta, src in zip(metas[1:], args.sources[1:]):
+    summary = merge(out, [Path(src) for src in args.sources])
+    print(f"{out}: {summary['episodes']} episodes, {summary['frames']} frames from {len(args.sources)} datasets; "
+          f"gloverec's records carried for {summary['records_carried']}")  # fmt: skip
+    return 0
+
+
+def merge(out: Path, sources: list[Path]) -> dict:
+    """LeRobot's merge_datasets of ``sources`` (in order) into the new folder ``out``, gloverec's records carried;
+    datasets that differ in fps, robot or features are refused in one line."""
+    from lerobot.datasets.dataset_tools import merge_datasets
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    metas = [load_meta(f"local/{src.name}", src) for src in sources]
+    first, src0 = metas[0], sources[0]
+    for meta, src in zip(metas[1:], sources[1:]):
         if (meta.fps, meta.robot_type) != (first.fps, first.robot_type):
             raise GloverecError(f"cannot merge {src0} ({first.robot_type}, {first.fps} fps) and {src} "
                                 f"({meta.robot_type}, {meta.fps} fps)")  # fmt: skip
-        diff = feature_differences(first.features, meta.features, src0, src)
+        diff = feature_differences(first.features, meta.features, str(src0), str(src))
         if diff:
             raise GloverecError(f"cannot merge {src0} and {src}: their features differ ({diff})")
-    datasets = [
-        LeRobotDataset(f"local/{Path(src).name}", root=src, video_backend=video_backend()) for src in args.sources
-    ]
+    datasets = [LeRobotDataset(f"local/{src.name}", root=src, video_backend=video_backend()) for src in sources]
     merged = merge_datasets(datasets, f"local/{out.name}", out)
-    matched = carry_sidecar(out, args.sources)[0] if any(read_sidecar(src) for src in args.sources) else 0
-    print(f"{out}: {merged.meta.total_episodes} episodes, {merged.meta.total_frames} frames from "
-          f"{len(args.sources)} datasets; gloverec's records carried for {matched}")  # fmt: skip
-    return 0
+    matched = carry_sidecar(out, sources)[0] if any(read_sidecar(src) for src in sources) else 0
+    return {"episodes": merged.meta.total_episodes, "frames": merged.meta.total_frames, "records_carried": matched}
 
 
 def feature_differences(a: dict, b: dict, name_a: str, name_b: str) -> str:

@@ -41,5 +41,23 @@ def demonstrator_class(task: str) -> type:
     return found
 
 
-def make_demonstrator(task: str):
-    return demonstrator_class(task)()
+DEMONSTRATORS = ("scripted", "human")
+
+
+def make_demonstrator(task: str, kind: str = "scripted", failure_rate: float | None = None):
+    """The task's scripted demonstrator, or with ``kind="human"`` its human-like one (recorder/demonstrator/human.py;
+    ``failure_rate``: the share of takes it gets wrong, default 15 %). An unknown kind, or a task without a human-like
+    demonstrator: one-line ConfigError."""
+    from recorder.config import ConfigError
+
+    if kind == "scripted":
+        return demonstrator_class(task)()
+    if kind != "human":
+        raise ConfigError(f"unknown demonstrator {kind!r}; valid: {', '.join(DEMONSTRATORS)}")
+    from recorder.demonstrator.human import HUMAN, HumanConfig
+
+    if task not in HUMAN:
+        raise ConfigError(f"task {task!r} has no human-like demonstrator yet (it has: {', '.join(HUMAN)})")
+    if failure_rate is not None and not 0.0 <= failure_rate <= 1.0:
+        raise ConfigError(f"failure rate {failure_rate:g}: expected a share from 0 to 1")
+    return HUMAN[task](HumanConfig() if failure_rate is None else HumanConfig(failure_rate=failure_rate))

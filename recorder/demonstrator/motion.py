@@ -50,6 +50,8 @@ class DemoMotion(SampledMotion):
         self._tremor = Sines(rng, N_JOINTS, 2, 8.0, 12.0, np.radians(tremor_deg))
         self._palm = Sines(rng, 3, 2, 0.05, 0.4, np.radians(palm_deg))
 
+    intent: dict | None = None  # what a planner meant by this take (recorder/demonstrator/human.py)
+
     @property
     def duration(self) -> float:
         return float(self.times[-1])
@@ -89,6 +91,21 @@ class DemoMotion(SampledMotion):
         self.palm_positions = np.concatenate((self.palm_positions[:k], [at, at + move], self.palm_positions[k:] + move))
         self.palm_turns = np.concatenate((self.palm_turns[:k], [turn, turn + delta], self.palm_turns[k:] + delta))
         return at_s
+
+    def insert(self, t: float, pose, replace: bool = False) -> None:
+        """A keyframe ``pose`` (20 rad) at ``t`` (the palm where its path is then); with ``replace``, the keyframe at
+        exactly ``t`` takes ``pose`` instead. The planners' edits (recorder/demonstrator/human.py)."""
+        k, pose = int(np.searchsorted(self.times, t)), clip(np.asarray(pose, float))
+        if replace:
+            if k >= len(self.times) or not np.isclose(self.times[k], t):
+                raise ValueError(f"no keyframe at {t:.3f} s to replace")
+            self.poses[k] = pose
+            return
+        at, turn = self._keyframes([t], self.palm_positions)[0], self._keyframes([t], self.palm_turns)[0]
+        self.times = np.insert(self.times, k, t)
+        self.poses = np.insert(self.poses, k, pose, axis=0)
+        self.palm_positions = np.insert(self.palm_positions, k, at, axis=0)
+        self.palm_turns = np.insert(self.palm_turns, k, turn, axis=0)
 
     def watch(self, env, into=None) -> None:
         """Called by whoever performs the demonstration after each step of ``env``: a demonstrator that watches

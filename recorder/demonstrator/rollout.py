@@ -137,13 +137,16 @@ def run_episode(
         "tip_error_mm": round(1000 * float(np.mean(errors)), 2),
         **({"wrist_untracked_steps": read.lost} if isinstance(read, _TrackedWrist) else {}),
         **{k: info[k] for k in ("goal", "object") if k in info},
+        **({"intent": motion.intent} if motion.intent is not None else {}),
     }
 
 
 def success_rate(
-    task: str, robot: str, episodes: int, via: str = "direct", mode: str = "joint", seed0: int = 0, **env_kwargs
-) -> dict:
+    task: str, robot: str, episodes: int, via: str = "direct", mode: str = "joint", seed0: int = 0,
+    demonstrator: str = "scripted", failure_rate: float | None = None, **env_kwargs,
+) -> dict:  # fmt: skip
 
+    demo = make_demonstrator(task, demonstrator, failure_rate)
     env = envs.make(task, robot, **env_kwargs)
     r = Retargeter.for_env(env, mode)
     t0 = time.perf_counter()
@@ -152,7 +155,7 @@ def success_rate(
         from recorder.wrist.emulated import EmulatedCamera
 
         camera = EmulatedCamera()
-    runs = [run_episode(env, r, seed0 + k, via, camera=camera) for k in range(episodes)]
+    runs = [run_episode(env, r, seed0 + k, via, demonstrator=demo, camera=camera) for k in range(episodes)]
     env.close()
     if camera is not None:
         camera.close()
@@ -162,6 +165,7 @@ def success_rate(
         "robot": robot,
         "via": via,
         "mode": mode,
+        "demonstrator": demonstrator,
         "episodes": episodes,
         "success_rate": round(ok / episodes, 3),
         "successes": ok,
@@ -180,10 +184,13 @@ def main(argv=None) -> None:
     p.add_argument("--mode", choices=MODES, default="joint")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--free-wrist", action="store_true", help="base_position: the wearer's wrist moves the base")
+    p.add_argument("--demonstrator", choices=("scripted", "human"), default="scripted")
+    p.add_argument("--failure-rate", type=float, help="--demonstrator human: the share of failed takes (0.15)")
     p.add_argument("--brief", action="store_true", help="leave out the per-episode runs")
     args = p.parse_args(argv)
     free = {"base_position": True} if args.free_wrist else {}
-    out = success_rate(args.task, args.robot, args.episodes, args.via, args.mode, args.seed, **free)
+    out = success_rate(args.task, args.robot, args.episodes, args.via, args.mode, args.seed, args.demonstrator,
+                       args.failure_rate, **free)  # fmt: skip
     if args.brief:
         out.pop("runs")
     print(json.dumps(out))

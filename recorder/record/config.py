@@ -101,6 +101,14 @@ class RecordConfig:
         metavar="FILE",
     )
     marker_mm: Annotated[float, Positive] = setting(40.0, "the marker's printed side, mm")
+    demonstrator: Literal["scripted", "human"] = setting(
+        "scripted",
+        "the emulated wearer (--glove emulator): scripted (smooth, nearly always right) or human (reaction times, "
+        "overshoot, hesitation, tremor, two strategies, failed takes; docs/envs.md)",
+    )
+    failure_rate: Annotated[float, NonNegative] = setting(
+        0.15, "--demonstrator human: the share of takes the wearer gets wrong (0 to 1)"
+    )
     seed: int = setting(0, "episode k of a session resets the environment with seed + k")
     log: bool = setting(True, "no raw MCAP log of the session beside the dataset", flag="--no-log")
     task_text: str | None = setting(None, "the task string stored with every frame (default: the task's)")
@@ -141,6 +149,13 @@ class RecordConfig:
         from envs import check_names, get_task  # MuJoCo (0.2 s): not at start-up
 
         check_names(self.robot, self.task)
+        if self.demonstrator != "scripted":
+            from recorder.demonstrator import make_demonstrator
+
+            if self.glove_config.kind != "emulator":
+                raise cfg.ConfigError(f"--demonstrator {self.demonstrator} is the emulated wearer: record with "
+                                      "--glove emulator")  # fmt: skip
+            make_demonstrator(self.task, self.demonstrator, self.failure_rate)  # a task without one: one line
         task = get_task(self.task).config_class.load(self.task, **self.task_options())
         if self.episode_time_s is not None and self.episode_time_s <= task.min_episode_s():
             raise cfg.ConfigError(

@@ -113,7 +113,7 @@ class Recorder:
         self.retarget = Retargeter.for_env(self.env, cfg.retarget, hand_size=self.profile.size())
         glove = cfg.glove_config
         scripted = glove.kind == "emulator" and (glove.motion or "demonstrations") == "demonstrations"
-        self.demonstrator = make_demonstrator(cfg.task) if scripted else None
+        self.demonstrator = make_demonstrator(cfg.task, cfg.demonstrator, cfg.failure_rate) if scripted else None
         wrist = cfg.wrist_config
         if self.u.config.base_position and wrist.kind == SCRIPTED and self.demonstrator is None:
             raise GloverecError(f"the {cfg.task} task needs a tracked wrist: --wrist udp:PORT or marker:CAMERA "
@@ -502,6 +502,8 @@ class Recorder:
             "start_device_time_s": device_start,
             **stats.summary(self.glove.counters()),
         }
+        if self.demo is not None and self.demo.intent is not None:
+            result["demonstration"] = self.demo.intent  # what the human-like wearer meant: strategy, failure
         if self.logger is not None:
             self.logger.mark("episode_end", episode=index, seed=seed, frames=stats.frames, success=success,
                              device_start_s=device_start)  # fmt: skip

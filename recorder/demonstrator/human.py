@@ -1,0 +1,183 @@
+"""The human-like demonstrator (`--demonstrator human`): a person's takes rather than a script's, for the tasks a
+person does with the fingers alone (HandPose, HandGrasp). It plans like the scripted demonstrator of the task, then
+moves the plan toward how people move, with figures from the motor-control literature:
+
+- **reaction time** before each move a person starts on seeing something (the goal gesture shown, the hand come to
+  rest over the object): visual simple reaction time, 250 ms mean, 40 ms spread, cut to 180-400 ms (Luce 1986,
+  "Response Times", ch. 2; Welford 1980: 200-300 ms for visual stimuli);
+- **speed variability**: each move's duration scaled by a log-normal factor, coefficient of variation 15 % (the
+  trial-to-trial variability of movement time in aimed movements; Schmidt et al. 1979 report 10-20 %);
+- **overshoot and correction**: a fast aimed move often overshoots and is corrected by a second, smaller
+  submovement (Meyer et al. 1988, optimized submovement model): in half the large moves the hand goes 5-15 % of the
+  move past its target and comes back in 150-250 ms;
+- **hesitation**: in a fifth of the large moves the hand stops partway (40-60 %) for 100-250 ms, then goes on;
+- **physiological tremor**: 8-12 Hz at the fingers, a few tenths of a degree (Elble & Koller 1990, "Tremor"):
+  0.3 deg per joint here (the scripted demonstrator: 0.05);
+- **two strategies** for the same task: the fingers and thumb together, or the thumb first (grasp) / last (pose);
+- **failed takes** at ``failure_rate`` (default 15 %), of the kinds people make: HandGrasp "too loose" (a grip 45 %
+  of the way closed, which the lift pulls out) or "lets go" (the hand opens during the lift); HandPose "stops
+  short" (60 % of the way to the gesture) or "wrong gesture" (the instruction misread: the gesture least like the
+  one asked for; also where stopping short of a gesture near the open hand would still show it).
+
+Each plan says what it intended (``motion.intent``: strategy, failure or None, and the edits made), so a benchmark
+and the recorder's episode records can tell a meant failure from an unlucky one. Seeded: the same seed gives the
+same take.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from recorder.config import ConfigError
+from recorder.demonstrator.grasp import GraspDemoConfig, GraspDemonstrator
+from recorder.demonstrator.motion import DemoMotion
+from recorder.demonstrator.pose import PoseDemoConfig, PoseDemonstrator
+from recorder.hand.gestures import GESTURES
+from recorder.hand.kinematics import JOINTS
+
+THUMB = np.array([name.startswith("thumb") for name in JOINTS])
+LARGE_RAD = np.radians(15.0)  # a move this large (its largest joint) can overshoot or hesitate
+
+
+@dataclass(frozen=True)
+class HumanConfig:
+    failure_rate: float = 0.15
+    reaction_s: tuple = (0.25, 0.04, 0.18, 0.40)  # mean, sd, shortest, longest
+    speed_cv: float = 0.15
+    overshoot_p: float = 0.5
+    overshoot: tuple = (0.05, 0.15)  # of the move's amplitude
+    correction_s: tuple = (0.15, 0.25)
+    hesitate_p: float = 0.2
+    hesitate_at: tuple = (0.4, 0.6)
+    hesitate_s: tuple = (0.1, 0.25)
+    tremor_deg: float = 0.3
+    loose: float = 0.45  # "too loose": this much of the way from open to the grasp
+    short: float = 0.6  # "stops short": this much of the way to the gesture
+
+
+def reaction(rng: np.random.Generator, c: HumanConfig) -> float:
+    mean, sd, lo, hi = c.reaction_s
+    return float(np.clip(rng.normal(mean, sd), lo, hi))
+
+
+def duration(rng: np.random.Generator, c: HumanConfig, span: tuple) -> float:
+    """A move's duration: the middle of the scripted range, scaled log-normally (``speed_cv``)."""
+    return float(np.mean(span) * rng.lognormal(0.0, c.speed_cv))
+
+
+def failure(rng: np.random.Generator, c: HumanConfig, kinds: tuple) -> str | None:
+    return str(rng.choice(kinds)) if rng.random() < c.failure_rate else None
+
+
+def humanize(m: DemoMotion, rng: np.random.Generator, c: HumanConfig, until: float = np.inf) -> list[str]:
+    """Overshoot-and-correct and hesitate in the large moves of ``m`` that end before ``until`` and are followed by
+    a hold long enough to take the extra time; the edits made."""
+    edits = []
+    k = 0
+    while k + 2 < len(m.times):
+        a, b, hold = m.poses[k], m.poses[k + 1], m.times[k + 2] - m.times[k + 1]
+        large = np.max(np.abs(b - a)) > LARGE_RAD and m.times[k + 1] < until
+        follows_hold = np.allclose(m.poses[k + 1], m.poses[k + 2])
+        if large and follows_hold and rng.random() < c.overshoot_p:
+            back = rng.uniform(*c.correction_s)
+            if hold > back + 0.05:
+                t = m.times[k + 1]
+                m.insert(t + back, b)  # the correction: back onto the target ...
+                m.insert(t, b + rng.uniform(*c.overshoot) * (b - a), replace=True)  # ... from past it
+                edits.append(f"overshoot at {t:.2f} s")
+                k += 1
+        elif large and follows_hold and rng.random() < c.hesitate_p:
+            pause, s = rng.uniform(*c.hesitate_s), rng.uniform(*c.hesitate_at)
+            t0, t1 = m.times[k], m.times[k + 1]
+            if hold > pause + 0.05:
+                mid = a + s * (b - a)  # partway (in joint space; the minimum-jerk halves keep it smooth) ...
+                m.times[k + 1] = t1 + pause  # ... the move then ends ``pause`` later, eating into the hold
+                m.insert(t0 + s * (t1 - t0), mid)
+                m.insert(t0 + s * (t1 - t0) + pause, mid)
+                edits.append(f"hesitation at {t0 + s * (t1 - t0):.2f} s")
+                k += 2
+        k += 1
+    return edits
+
+
+def staged(m: DemoMotion, t0: float, t1: float, thumb_first: bool) -> None:
+    """The move that ends at keyframe ``t1`` (from ``t0``) done in two: the thumb first (or last), then the rest."""
+    k = int(np.searchsorted(m.times, t1))
+    a, b = m.poses[k - 1], m.poses[k]
+    mid = np.where(THUMB == thumb_first, b, a)
+    m.insert(t0 + 0.5 * (t1 - t0), mid)
+
+
+class HumanGraspDemonstrator(GraspDemonstrator):
+    """HandGrasp as a person grasps: see module docstring. Fingers only (no free wrist)."""
+
+    def __init__(self, human: HumanConfig = HumanConfig(), config: GraspDemoConfig = GraspDemoConfig()):
+        super().__init__(config)
+        self.human = human
+
+    def plan(self, env, seed: int | None = None) -> DemoMotion:
+        env, h = env.unwrapped, self.human
+        if env.config.base_position:
+            raise ConfigError("the human-like grasp demonstrator moves the fingers only: record without --wrist")
+        rng = np.random.default_rng(seed)
+        sub = np.random.default_rng(rng.integers(2**32))  # the scripted plan's own draws
+        fails = failure(rng, h, ("too loose", "lets go"))
+        strategy = str(rng.choice(("together", "thumb first")))
+        r = reaction(rng, h)
+        c = self.config
+        scripted = GraspDemoConfig(
+            pre_s=c.pre_s, preshape_s=(duration(rng, h, c.preshape_s),) * 2, reaction_s=(r, r),
+            close_s=(duration(rng, h, c.close_s),) * 2, pose_noise_deg=c.pose_noise_deg, rate_hz=c.rate_hz,
+        )  # fmt: skip
+        m = GraspDemonstrator(scripted).plan(env, seed=int(sub.integers(2**31)))
+        m = DemoMotion(m.times, m.poses, rng, c.rate_hz, tremor_deg=h.tremor_deg)
+        t_close, t_closed = m.times[3], m.times[4]
+        opened, closed = m.poses[2], m.poses[4]
+        if fails == "too loose":
+            m.poses[4:] = opened + h.loose * (closed - opened)
+        if strategy == "thumb first":
+            staged(m, t_close, t_closed, thumb_first=True)
+        edits = humanize(m, rng, h, until=env.schedule["lift"])
+        if fails == "lets go":
+            t = env.schedule["lift"] + rng.uniform(0.3, 0.6)
+            m.insert(t, m.keyframe_angles([t])[0])
+            m.insert(t + rng.uniform(0.3, 0.5), GESTURES["open"])
+        m.intent = {"demonstrator": "human", "strategy": strategy, "failure": fails, "edits": edits}
+        return m
+
+
+class HumanPoseDemonstrator(PoseDemonstrator):
+    """HandPose as a person shows a gesture: see module docstring."""
+
+    def __init__(self, human: HumanConfig = HumanConfig(), config: PoseDemoConfig = PoseDemoConfig()):
+        super().__init__(config)
+        self.human = human
+
+    def plan(self, env, seed: int | None = None) -> DemoMotion:
+        env, h, c = env.unwrapped, self.human, self.config
+        rng = np.random.default_rng(seed)
+        fails = failure(rng, h, ("stops short", "wrong gesture"))
+        strategy = str(rng.choice(("together", "thumb last")))
+        noise = np.clip(rng.normal(0, 1, len(env.goal_angles)), -2, 2) * np.radians(c.pose_noise_deg)
+        start, goal = GESTURES["open"], env.goal_angles + noise
+        missed = (1.0 - h.short) * np.max(np.abs(goal - start))
+        if fails == "stops short" and missed < 2 * np.radians(env.config.tolerance_deg):
+            fails = "wrong gesture"  # a gesture this close to the open hand: stopping short would still show it
+        if fails == "stops short":
+            goal = start + h.short * (goal - start)
+        elif fails == "wrong gesture":  # the instruction misread: the gesture least like the one asked for
+            goal = max(GESTURES.values(), key=lambda g: float(np.max(np.abs(g - env.goal_angles)))) + noise
+        t0 = reaction(rng, h)
+        t1 = t0 + duration(rng, h, c.move_s)
+        end = max(t1, env.config.episode_s) + 1.0
+        m = DemoMotion([0.0, t0, t1, end], [start, start, goal, goal], rng, c.rate_hz, tremor_deg=h.tremor_deg)
+        if strategy == "thumb last":
+            staged(m, t0, t1, thumb_first=False)
+        edits = humanize(m, rng, h)
+        m.intent = {"demonstrator": "human", "strategy": strategy, "failure": fails, "edits": edits}
+        return m
+
+
+HUMAN = {"grasp": HumanGraspDemonstrator, "pose": HumanPoseDemonstrator}

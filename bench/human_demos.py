@@ -1,0 +1,103 @@
+"""Learning from imperfect demonstrations: BC on the human-like demonstrator's takes against the scripted one's.
+
+    .venv/bin/python bench/human_demos.py [--tasks grasp] [--robot glovehand] [--episodes 50] [--failure-rate 0.15]
+
+For each task, with the gloverec commands a user runs (each in a child process), on the same seeds (0..N-1):
+  record N demonstrations with the scripted demonstrator, and N with the human-like one (--demonstrator human)
+  -> train BC (the task's steps in bench/learning.py) on: the scripted takes; all the human-like takes
+     (--all-episodes); the reviewed human-like takes (the failed ones left out: train's default)
+  -> eval each on 50 unseen seeds (100000..), success with its Wilson 95 % interval.
+Writes bench/results/human_demos.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import write_results  # noqa: E402
+from learning import EVAL_SEED, STEPS, TASK_STEPS, gloverec  # noqa: E402
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+os.environ.setdefault("HF_HUB_OFFLINE", "1")
+
+
+def wilson(successes: int, n: int, z: float = 1.96) -> list[float]:
+    """The Wilson score interval of a success rate (Wilson 1927), as [low, high]."""
+    if n == 0:
+        return [0.0, 1.0]
+    p = successes / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return [round(centre - half, 3), round(centre + half, 3)]
+
+
+def record(task: str, robot: str, demonstrator: str, args, tmp: Path) -> dict:
+    root = tmp / f"{task}_{demonstrator}"
+    extra = ["--demonstrator", "human", "--failure-rate", str(args.failure_rate)] if demonstrator == "human" else []
+    rec = gloverec("record", "--view", "none", "--glove", "emulator", "--task", task, "--robot", robot,
+                   "--episodes", str(args.episodes), "--root", str(root), "--repo-id", f"bench/{task}_{demonstrator}",
+                   "--seed", "0", "--fast", "--no-log", *extra)  # fmt: skip
+    return {"root": str(root), "repo_id": f"bench/{task}_{demonstrator}", "success_rate": rec["success_rate"]}
+
+
+def train_eval(task: str, robot: str, data: dict, name: str, all_takes: bool, args, tmp: Path) -> dict:
+    out = tmp / "runs" / f"{task}_{name}"
+    steps = TASK_STEPS.get(task, STEPS)
+    t = time.perf_counter()
+    trained = gloverec("train", "--repo-id", data["repo_id"], "--root", data["root"], "--steps", str(steps),
+                       "--out", str(out), *(["--all-episodes"] if all_takes else []))  # fmt: skip
+    train_s = time.perf_counter() - t
+    ev = gloverec("eval", "--policy", str(out), "--task", task, "--robot", robot, "--episodes",
+                  str(args.eval_episodes), "--seed", str(EVAL_SEED))  # fmt: skip
+    return {
+        "training_set": name,
+        "train_episodes": trained["train_episodes"],
+        "train_s": round(train_s, 1),
+        "success_rate": ev["success_rate"],
+        "successes": ev["successes"],
+        "wilson95": wilson(ev["successes"], ev["episodes"]),
+    }
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--tasks", default="grasp")
+    p.add_argument("--robot", default="glovehand")
+    p.add_argument("--episodes", type=int, default=50)
+    p.add_argument("--eval-episodes", type=int, default=50)
+    p.add_argument("--failure-rate", type=float, default=0.15)
+    args = p.parse_args()
+    rows, t0 = [], time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="gloverec-human-") as tmp_name:
+        tmp = Path(tmp_name)
+        for task in args.tasks.split(","):
+            print(f"[{task} on {args.robot}]", flush=True)
+            scripted, human = (record(task, args.robot, d, args, tmp) for d in ("scripted", "human"))
+            policies = [
+                train_eval(task, args.robot, scripted, "scripted", False, args, tmp),
+                train_eval(task, args.robot, human, "human, all takes", True, args, tmp),
+                train_eval(task, args.robot, human, "human, reviewed takes", False, args, tmp),
+            ]
+            for r in policies:
+                print(f"  {r['training_set']}: BC {r['success_rate']:.0%} {r['wilson95']}", flush=True)
+            rows.append({
+                "task": task, "robot": args.robot, "demonstrations": args.episodes,
+                "demo_success": {"scripted": scripted["success_rate"], "human": human["success_rate"]},
+                "bc": policies,
+            })  # fmt: skip
+    write_results(
+        "human_demos",
+        {"failure_rate": args.failure_rate, "eval_seeds_from": EVAL_SEED, "rows": rows,
+         "wall_s": round(time.perf_counter() - t0, 1)},
+    )  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()

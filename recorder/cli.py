@@ -271,7 +271,7 @@ def cmd_edit(args) -> int:
     out = Path(args.out) if args.out else None
     if out is not None and (out.exists() or out.is_symlink()):
         raise GloverecError(f"{out} already exists: edit into a new folder")
-    with tempfile.TemporaryDirectory(prefix="gloverec-edit-", dir=None if out else hub.root) as tmp:
+    with tempfile.TemporaryDirectory(prefix="gloverec-edit-") as tmp:  # push copies it into the hub
         result = out or Path(tmp) / "result"
         try:
             first = result if not args.merge else Path(tmp) / "edited" if edits else src

@@ -64,3 +64,16 @@ def median_rate(fn, items: int, runs: int = 5) -> dict:
         fn()
         rates.append(items / (time.perf_counter() - t))
     return {"median": round(statistics.median(rates)), "min": round(min(rates)), "max": round(max(rates)), "runs": runs}
+
+
+def gloverec(*args: str, timeout: float = 3600) -> dict:
+    """A gloverec command with --json in a child process, as a user runs it: its JSON object (a failure ends the
+    benchmark with the command's error)."""
+    import subprocess
+
+    cmd = [sys.executable, "-m", "recorder.cli", *args, "--json"]
+    print("  $ gloverec " + " ".join(args), flush=True)
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    if r.returncode != 0:
+        sys.exit(f"bench: `gloverec {' '.join(args)}` failed: {r.stderr.strip()[-2000:]}")
+    return json.loads(r.stdout.strip().splitlines()[-1])

@@ -1,10 +1,11 @@
 """Learning from imperfect demonstrations: BC on the human-like demonstrator's takes against the scripted one's.
 
     .venv/bin/python bench/human_demos.py [--tasks grasp] [--robot glovehand] [--episodes 50] [--failure-rate 0.15]
+                                          [--steps 3000]
 
 For each task, with the gloverec commands a user runs (each in a child process), on the same seeds (0..N-1):
   record N demonstrations with the scripted demonstrator, and N with the human-like one (--demonstrator human)
-  -> train BC (the task's steps in bench/learning.py) on: the scripted takes; all the human-like takes
+  -> train BC (--steps, 3000) on: the scripted takes; all the human-like takes
      (--all-episodes); the reviewed human-like takes (the failed ones left out: train's default)
   -> eval each on 50 unseen seeds (100000..), success with its Wilson 95 % interval.
 Writes bench/results/human_demos.json.
@@ -21,8 +22,9 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import write_results  # noqa: E402
-from learning import EVAL_SEED, STEPS, TASK_STEPS, gloverec  # noqa: E402
+from _common import gloverec, write_results  # noqa: E402
+
+EVAL_SEED = 100_000  # bench/learning.py's: seeds no demonstration was recorded with
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
@@ -49,9 +51,8 @@ def record(task: str, robot: str, demonstrator: str, args, tmp: Path) -> dict:
 
 def train_eval(task: str, robot: str, data: dict, name: str, all_takes: bool, args, tmp: Path) -> dict:
     out = tmp / "runs" / f"{task}_{name}"
-    steps = TASK_STEPS.get(task, STEPS)
     t = time.perf_counter()
-    trained = gloverec("train", "--repo-id", data["repo_id"], "--root", data["root"], "--steps", str(steps),
+    trained = gloverec("train", "--repo-id", data["repo_id"], "--root", data["root"], "--steps", str(args.steps),
                        "--out", str(out), *(["--all-episodes"] if all_takes else []))  # fmt: skip
     train_s = time.perf_counter() - t
     ev = gloverec("eval", "--policy", str(out), "--task", task, "--robot", robot, "--episodes",
@@ -73,6 +74,7 @@ def main() -> None:
     p.add_argument("--episodes", type=int, default=50)
     p.add_argument("--eval-episodes", type=int, default=50)
     p.add_argument("--failure-rate", type=float, default=0.15)
+    p.add_argument("--steps", type=int, default=3000, help="BC training steps")
     args = p.parse_args()
     rows, t0 = [], time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="gloverec-human-") as tmp_name:

@@ -27,7 +27,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import RESULTS, write_results  # noqa: E402
+from _common import RESULTS, gloverec, write_results  # noqa: E402
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
@@ -54,16 +54,6 @@ ACT_FLAGS = [
     "--env_eval_freq=0",
     "--log_freq=500",
 ]
-
-
-def gloverec(*args: str, timeout: float = 3600) -> dict:
-    """A gloverec command with --json in a child process: its JSON object."""
-    cmd = [sys.executable, "-m", "recorder.cli", *args, "--json"]
-    print("  $ gloverec " + " ".join(args), flush=True)
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
-    if r.returncode != 0:
-        sys.exit(f"bench: `gloverec {' '.join(args)}` failed: {r.stderr.strip()[-2000:]}")
-    return json.loads(r.stdout.strip().splitlines()[-1])
 
 
 def one(task: str, robot: str, args, tmp: Path, hub: Path) -> dict:

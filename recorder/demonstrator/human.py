@@ -80,7 +80,8 @@ def humanize(m: DemoMotion, rng: np.random.Generator, c: HumanConfig, until: flo
         a, b, hold = m.poses[k], m.poses[k + 1], m.times[k + 2] - m.times[k + 1]
         large = np.max(np.abs(b - a)) > LARGE_RAD and m.times[k + 1] < until
         follows_hold = np.allclose(m.poses[k + 1], m.poses[k + 2])
-        if large and follows_hold and rng.random() < c.overshoot_p:
+        u = rng.random() if large and follows_hold else 1.0  # one draw: overshoot, hesitate, or neither
+        if u < c.overshoot_p:
             back = rng.uniform(*c.correction_s)
             if hold > back + 0.05:
                 t = m.times[k + 1]
@@ -88,7 +89,7 @@ def humanize(m: DemoMotion, rng: np.random.Generator, c: HumanConfig, until: flo
                 m.insert(t, b + rng.uniform(*c.overshoot) * (b - a), replace=True)  # ... from past it
                 edits.append(f"overshoot at {t:.2f} s")
                 k += 1
-        elif large and follows_hold and rng.random() < c.hesitate_p:
+        elif u < c.overshoot_p + c.hesitate_p:
             pause, s = rng.uniform(*c.hesitate_s), rng.uniform(*c.hesitate_at)
             t0, t1 = m.times[k], m.times[k + 1]
             if hold > pause + 0.05:

@@ -50,7 +50,7 @@ def record(task: str, robot: str, demonstrator: str, args, tmp: Path) -> dict:
 
 
 def train_eval(task: str, robot: str, data: dict, name: str, all_takes: bool, args, tmp: Path) -> dict:
-    out = tmp / "runs" / f"{task}_{name}"
+    out = tmp / "runs" / f"{task}_{name}".replace(", ", "_").replace(" ", "_")
     t = time.perf_counter()
     trained = gloverec("train", "--repo-id", data["repo_id"], "--root", data["root"], "--steps", str(args.steps),
                        "--out", str(out), *(["--all-episodes"] if all_takes else []))  # fmt: skip

@@ -67,6 +67,8 @@ def test_record_with_the_human_demonstrator_keeps_what_it_meant(tmp_path):
     assert LeRobotDataset("test/human", root=root).num_episodes == 2
     records = read_sidecar(root)
     assert [rec["demonstration"]["failure"] in ("too loose", "lets go") for rec in records] == [True, True]
+    shown = cli("inspect", "--repo-id", "test/human", "--root", str(root), "--no-plot")
+    assert shown.returncode == 0 and shown.stdout.count("[meant to fail: ") == 2, shown.stdout
 
 
 @pytest.mark.parametrize(

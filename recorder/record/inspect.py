@@ -52,6 +52,7 @@ def episodes_table(repo_id: str, root: Path) -> list[dict]:
                 "seconds": round(ep["length"] / meta.fps, 2),
                 "task": ep["tasks"][0] if len(ep["tasks"]) else "",
                 **{k: s.get(k) for k in COLUMNS if k != "frames"},
+                "demonstration": s.get("demonstration"),  # the human-like demonstrator's intent, if it made the take
             }
         )
     return rows
@@ -226,6 +227,11 @@ def dataset_root(repo_id: str, root: str | None, hub: str | None) -> Path:
     return Path(root) if root else Path("datasets/recordings") / repo_id
 
 
+def _meant(demonstration: dict | None) -> str:
+    failure = (demonstration or {}).get("failure")
+    return f"  [meant to fail: {failure}]" if failure else ""
+
+
 def run(args) -> int:
     root = dataset_root(args.repo_id, args.root, args.hub)
     if not root.exists():
@@ -250,7 +256,7 @@ def run(args) -> int:
             f"{r['episode']:>3} {r['frames']:>6} {r['seconds']:>5} {_yes_no(r['success']):>3} "
             f"{f(r['glove_late']):>5} {f(r['glove_dropped']):>5} {f(r['loop_overruns']):>7} "
             f"{f(r['jitter_ms_p99'], 2):>8} {f(r['latency_ms_p99']):>6} {f(r['retarget_error_mm_mean']):>8}  "
-            f"{r['task']}"
+            f"{r['task']}{_meant(r['demonstration'])}"
         )
     if plot:
         print(f"plot of episode {args.episode}: {plot}")

@@ -1,6 +1,6 @@
 """The human-like demonstrator (`--demonstrator human`): a person's takes rather than a script's, for the tasks a
-person does with the fingers alone (HandPose, HandGrasp). It plans like the scripted demonstrator of the task, then
-moves the plan toward how people move, with figures from the motor-control literature:
+person does with the fingers alone (HandPose, HandGrasp, HandPinch). It plans like the task's scripted demonstrator,
+then moves the plan toward how people move, with figures from the motor-control literature:
 
 - **reaction time** before each move a person starts on seeing something (the goal gesture shown, the hand come to
   rest over the object): visual simple reaction time, 250 ms mean, 40 ms spread, cut to 180-400 ms (Luce 1986,
@@ -13,9 +13,11 @@ moves the plan toward how people move, with figures from the motor-control liter
 - **hesitation**: in a fifth of the large moves the hand stops partway (40-60 %) for 100-250 ms, then goes on;
 - **physiological tremor**: 8-12 Hz at the fingers, a few tenths of a degree (Elble & Koller 1990, "Tremor"):
   0.3 deg per joint here (the scripted demonstrator: 0.05);
-- **two strategies** for the same task: the fingers and thumb together, or the thumb first (grasp) / last (pose);
+- **two strategies** for the same task: the fingers and thumb together, or the thumb first (grasp, pinch) / last
+  (pose);
 - **failed takes** at ``failure_rate`` (default 15 %), of the kinds people make: HandGrasp "too loose" (a grip 45 %
-  of the way closed, which the lift pulls out) or "lets go" (the hand opens during the lift); HandPose "stops
+  of the way closed, which the lift pulls out) or "lets go" (the hand opens during the lift); HandPinch "too loose"
+  or "wrong finger" (the other finger the task draws from opposes the thumb); HandPose "stops
   short" (60 % of the way to the gesture) or "wrong gesture" (the instruction misread: the gesture least like the
   one asked for; also where stopping short of a gesture near the open hand would still show it).
 
@@ -26,13 +28,14 @@ same take.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from recorder.config import ConfigError
-from recorder.demonstrator.grasp import GraspDemoConfig, GraspDemonstrator
+from recorder.demonstrator.grasp import GraspDemonstrator
 from recorder.demonstrator.motion import DemoMotion
+from recorder.demonstrator.pinch import PinchDemonstrator
 from recorder.demonstrator.pose import PoseDemoConfig, PoseDemonstrator
 from recorder.hand.gestures import GESTURES
 from recorder.hand.kinematics import JOINTS
@@ -111,29 +114,36 @@ def staged(m: DemoMotion, t0: float, t1: float, thumb_first: bool) -> None:
     m.insert(t0 + 0.5 * (t1 - t0), mid)
 
 
-class HumanGraspDemonstrator(GraspDemonstrator):
-    """HandGrasp as a person grasps: see module docstring. Fingers only (no free wrist)."""
+class HumanGripDemonstrator:
+    """A grip task (HandGrasp, HandPinch) as a person does it: the scripted plan (``scripted``, its reaction and
+    durations drawn as people's), then a strategy, the overshoots and hesitations, and the meant failure. Fingers only
+    (no free wrist)."""
 
-    def __init__(self, human: HumanConfig = HumanConfig(), config: GraspDemoConfig = GraspDemoConfig()):
-        super().__init__(config)
+    scripted: type = GraspDemonstrator
+    kinds: tuple = ("too loose", "lets go")
+
+    def __init__(self, human: HumanConfig = HumanConfig(), config=None):
         self.human = human
+        self.config = config if config is not None else self.scripted().config
+
+    def _scripted_plan(self, env, config, seed: int, fails: str | None) -> DemoMotion:
+        return self.scripted(config).plan(env, seed=seed)
 
     def plan(self, env, seed: int | None = None) -> DemoMotion:
-        env, h = env.unwrapped, self.human
+        env, h, c = env.unwrapped, self.human, self.config
         if env.config.base_position:
-            raise ConfigError("the human-like grasp demonstrator moves the fingers only: record without --wrist")
+            raise ConfigError(
+                f"the human-like {env.task_name} demonstrator moves the fingers only: record without --wrist"
+            )
         rng = np.random.default_rng(seed)
         sub = np.random.default_rng(rng.integers(2**32))  # the scripted plan's own draws
-        fails = failure(rng, h, ("too loose", "lets go"))
+        fails = failure(rng, h, self.kinds)
         strategy = str(rng.choice(("together", "thumb first")))
         r = reaction(rng, h)
-        c = self.config
-        scripted = GraspDemoConfig(
-            pre_s=c.pre_s, preshape_s=(duration(rng, h, c.preshape_s),) * 2, reaction_s=(r, r),
-            close_s=(duration(rng, h, c.close_s),) * 2, pose_noise_deg=c.pose_noise_deg, rate_hz=c.rate_hz,
-        )  # fmt: skip
-        m = GraspDemonstrator(scripted).plan(env, seed=int(sub.integers(2**31)))
-        m = DemoMotion(m.times, m.poses, rng, c.rate_hz, tremor_deg=h.tremor_deg)
+        config = replace(c, preshape_s=(duration(rng, h, c.preshape_s),) * 2, reaction_s=(r, r),
+                         close_s=(duration(rng, h, c.close_s),) * 2)  # fmt: skip
+        m = self._scripted_plan(env, config, int(sub.integers(2**31)), fails)
+        m = DemoMotion(m.times, m.poses, rng, c.rate_hz, tremor_deg=h.tremor_deg, palm_deg=getattr(c, "palm_deg", 3.0))
         t_close, t_closed = m.times[3], m.times[4]
         opened, closed = m.poses[2], m.poses[4]
         if fails == "too loose":
@@ -147,6 +157,25 @@ class HumanGraspDemonstrator(GraspDemonstrator):
             m.insert(t + rng.uniform(0.3, 0.5), GESTURES["open"])
         m.intent = {"demonstrator": "human", "strategy": strategy, "failure": fails, "edits": edits}
         return m
+
+
+class HumanGraspDemonstrator(HumanGripDemonstrator):
+    task = "grasp"
+
+
+class HumanPinchDemonstrator(HumanGripDemonstrator):
+    """HandPinch: the mistakes are a pinch too loose, or with the wrong finger (the other one the task draws from;
+    too loose where the robot's thumb reaches only one)."""
+
+    task = "pinch"
+    scripted = PinchDemonstrator
+    kinds = ("too loose", "wrong finger")
+
+    def _scripted_plan(self, env, config, seed: int, fails: str | None) -> DemoMotion:
+        others = [f for f in env.fingers if f != env.finger]
+        if fails == "wrong finger" and others:
+            return self.scripted(config).plan(env, seed=seed, finger=others[0])
+        return self.scripted(config).plan(env, seed=seed)
 
 
 class HumanPoseDemonstrator(PoseDemonstrator):
@@ -181,4 +210,4 @@ class HumanPoseDemonstrator(PoseDemonstrator):
         return m
 
 
-HUMAN = {"grasp": HumanGraspDemonstrator, "pose": HumanPoseDemonstrator}
+HUMAN = {"grasp": HumanGraspDemonstrator, "pinch": HumanPinchDemonstrator, "pose": HumanPoseDemonstrator}

@@ -46,11 +46,12 @@ class PinchDemonstrator:
     def __init__(self, config: PinchDemoConfig = PinchDemoConfig()):
         self.config = config
 
-    def plan(self, env, seed: int | None = None) -> DemoMotion:
+    def plan(self, env, seed: int | None = None, finger: str | None = None) -> DemoMotion:
+        """``finger``: pinch with that finger rather than the one the task names (a wearer's mistake)."""
         env = env.unwrapped
         c = self.config
         rng = np.random.default_rng(seed)
-        robot, finger, width = env.robot.config.name, env.finger, env.pinch_gap_mm()
+        robot, finger, width = env.robot.config.name, finger or env.finger, env.pinch_gap_mm()
         open_p = robot_pinch(robot, finger, width + int(rng.integers(c.aperture_mm[0], c.aperture_mm[1] + 1)))[0]
         lo, hi = c.squeeze_for(robot)
         closed_p = robot_pinch(robot, finger, max(0, width - int(rng.integers(lo, hi + 1))))[0]

@@ -156,6 +156,9 @@ class RecordConfig:
                 raise cfg.ConfigError(f"--demonstrator {self.demonstrator} is the emulated wearer: record with "
                                       "--glove emulator")  # fmt: skip
             make_demonstrator(self.task, self.demonstrator, self.failure_rate)  # a task without one: one line
+            if self.wrist_config.kind != SCRIPTED:
+                raise cfg.ConfigError(f"--demonstrator {self.demonstrator} moves the fingers only: record without "
+                                      "--wrist")  # fmt: skip
         task = get_task(self.task).config_class.load(self.task, **self.task_options())
         if self.episode_time_s is not None and self.episode_time_s <= task.min_episode_s():
             raise cfg.ConfigError(

@@ -50,19 +50,19 @@ class PalmFrame(nn.Module):
         self.palm, self.base, self.scale_m = palm, base, scale_m
         self.env_idx = [i for i, _ in moved]
         self.env_axis = [a for _, a in moved]
-        for name, key, idx in (("palm", "observation.state", palm), ("base", "action", base),
-                               ("env", "observation.environment_state", self.env_idx)):  # fmt: skip
-            mean, std = torch.zeros(len(idx)), torch.ones(len(idx))  # loaded with the weights when not given
-            if stats is not None and key in stats:
-                mean = torch.as_tensor(stats[key]["mean"], dtype=torch.float32).flatten()[idx]
-                std = torch.as_tensor(stats[key]["std"], dtype=torch.float32).flatten()[idx]
-            self.register_buffer(f"{name}_mean", mean)
-            self.register_buffer(f"{name}_std", std)
+        for name, _, idx in self._slots():  # loaded with the weights when no statistics are given
+            self.register_buffer(f"{name}_mean", torch.zeros(len(idx)))
+            self.register_buffer(f"{name}_std", torch.ones(len(idx)))
+        if stats is not None:
+            self.adopt(stats)
+
+    def _slots(self) -> tuple:
+        return (("palm", "observation.state", self.palm), ("base", "action", self.base),
+                ("env", "observation.environment_state", self.env_idx))  # fmt: skip
 
     def adopt(self, stats: dict) -> None:
         """Take the statistics the processors normalise with (gloverec train computes its own)."""
-        for name, key, idx in (("palm", "observation.state", self.palm), ("base", "action", self.base),
-                               ("env", "observation.environment_state", self.env_idx)):  # fmt: skip
+        for name, key, idx in self._slots():
             if key in stats:
                 getattr(self, f"{name}_mean").copy_(torch.as_tensor(stats[key]["mean"]).flatten()[idx])
                 getattr(self, f"{name}_std").copy_(torch.as_tensor(stats[key]["std"]).flatten()[idx])

@@ -143,11 +143,9 @@ def edit_dataset(src: Path, out: Path, repo_id: str, edits: Edits, progress: boo
         for new_index, (e, frames) in enumerate(kept.items()):
             rows = data[starts[e] + frames.start : starts[e] + frames.stop]  # columns of the kept frames
             if images:  # camera frames go through LeRobot's image writer and video encoder, frame by frame
-                for k in frames:
+                for j, k in enumerate(frames):
                     item = source[starts[e] + k]  # decodes the camera frames: (C, H, W) float in [0, 1]
-                    frame = {
-                        key: _value(data[starts[e] + k][key], features[key]) for key in features if key not in images
-                    }
+                    frame = {key: _value(rows[key][j], features[key]) for key in features if key not in images}
                     for key in images:
                         frame[key] = (item[key].permute(1, 2, 0).numpy() * 255.0).round().astype(np.uint8)
                     target.add_frame({**frame, "task": tasks[int(item["task_index"])]})
@@ -162,8 +160,7 @@ def edit_dataset(src: Path, out: Path, repo_id: str, edits: Edits, progress: boo
                 bar.update(n)
             record = records.get(e)
             if record is not None:
-                first = {key: rows[key][0] for key in rows}
-                new_records.append(_record(record, new_index, len(frames), first, e, edits))
+                new_records.append(_record(record, new_index, len(frames), rows, e, edits))
     finally:
         bar.close()
         target.finalize()
@@ -188,10 +185,11 @@ def _value(value, feature: dict):
     return array.reshape(feature["shape"])
 
 
-def _record(record: dict, index: int, frames: int, first_row: dict, source_index: int, edits: Edits) -> dict:
+def _record(record: dict, index: int, frames: int, rows: dict, source_index: int, edits: Edits) -> dict:
+    """``record`` for the new episode ``index`` made of ``rows`` (the kept frames' columns) of ``source_index``."""
     out = {**record, "episode_index": index, "frames": frames}
-    if "time.device_s" in first_row:
-        out["start_device_time_s"] = float(np.asarray(first_row["time.device_s"]).reshape(-1)[0])
+    if "time.device_s" in rows:  # the key read_sidecar matches records by: the first kept frame's device time
+        out["start_device_time_s"] = float(np.asarray(rows["time.device_s"][0]).reshape(-1)[0])
     if source_index in edits.trim:
         start, end = edits.trim[source_index]
         out["trimmed_s"] = [start, end]

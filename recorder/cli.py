@@ -242,14 +242,12 @@ def _edit_parser(sub) -> None:
 
 
 def cmd_edit(args) -> int:
-    import shutil
-    import tempfile
     from pathlib import Path
 
-    from recorder.dataset_check import check_dataset
     from recorder.hub.store import Hub  # pyarrow: not at start-up
-    from recorder.record.edit import Edits, edit_dataset
-    from recorder.record.inspect import dataset_root, merge
+    from recorder.record.edit import Edits
+    from recorder.record.inspect import dataset_root
+    from recorder.review.publish import publish
 
     edits = Edits.parse(args.delete, args.trim, args.success)
     if not edits and not args.merge:
@@ -264,32 +262,8 @@ def cmd_edit(args) -> int:
         src = dataset_root(args.repo_id, args.root, None)
         if args.out is None:
             raise GloverecError("pass --out DIR: a recording is not edited in place (or --hub for a hub dataset)")
-    for folder in (src, *map(Path, args.merge)):
-        if not folder.exists():
-            raise GloverecError(f"no dataset at {folder}")
-        check_dataset(folder)
     out = Path(args.out) if args.out else None
-    if out is not None and (out.exists() or out.is_symlink()):
-        raise GloverecError(f"{out} already exists: edit into a new folder")
-    with tempfile.TemporaryDirectory(prefix="gloverec-edit-") as tmp:  # push copies it into the hub
-        result = out or Path(tmp) / "result"
-        try:
-            first = result if not args.merge else Path(tmp) / "edited" if edits else src
-            if edits:
-                summary = edit_dataset(src, first, args.repo_id, edits, progress=not args.json)
-            else:
-                summary = {"source": str(src), "edits": "", "source_episodes": None}
-            if args.merge:
-                summary.update(merge(result, [first, *map(Path, args.merge)]), merged=args.merge)
-        except BaseException:
-            if out is not None:
-                shutil.rmtree(out, ignore_errors=True)  # nothing half-written left behind
-            raise
-        summary["out"] = str(result)
-        if out is None:
-            version = hub.push(result, args.repo_id)
-            summary["out"] = str(version.path)
-            summary["version"] = version.tag
+    summary = publish(src, args.repo_id, edits, hub=hub, out=out, merge=args.merge, progress=not args.json)
     if args.json:
         print(json.dumps(summary), flush=True)
     else:

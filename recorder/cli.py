@@ -18,6 +18,7 @@ from recorder.calibrate import cli as calibrate_cli
 from recorder.glove.config import SPECS, GloveConfig
 from recorder.hub import cli as hub_cli
 from recorder.record import cli as record_cli, inspect as inspect_cli
+from recorder.review import cli as review_cli
 from recorder.view import cli as view_cli
 
 PORT_HELP = f"the glove: {SPECS}"
@@ -111,6 +112,7 @@ def build_parser() -> argparse.ArgumentParser:
     record_cli.add_rerecord_parser(sub)
     inspect_cli.add_parsers(sub)
     _edit_parser(sub)
+    review_cli.add_parser(sub)
     hub_cli.add_parsers(sub)
     policies_cli.add_parsers(sub)
     return p

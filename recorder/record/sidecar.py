@@ -63,12 +63,13 @@ def _same_episode(record: dict, key: tuple[int, float | None] | None) -> bool:
     return abs(start - recorded) <= 1e-4 + 4e-7 * abs(recorded)  # time.device_s is stored as float32
 
 
-def read_sidecar(root: str | Path) -> list[dict]:
-    """Our per-episode metadata of a dataset, the records that describe its episodes (empty when it has none)."""
+def read_sidecar(root: str | Path, keys: dict[int, tuple[int, float | None]] | None = None) -> list[dict]:
+    """Our per-episode metadata of a dataset, the records that describe its episodes (empty when it has none);
+    ``keys``: its ``episode_keys``, when the caller has read the episode metadata already."""
     records = _records(root)
     if not records:
         return []
-    keys = episode_keys(root)
+    keys = episode_keys(root) if keys is None else keys
     good = [r for r in records if _same_episode(r, keys.get(int(r["episode_index"])))]
     if len(good) < len(records):
         print(

@@ -37,6 +37,12 @@ class Frames:
         self.at: tuple[int, int] | None = None  # (episode, frame) the replaying env is at
         self.replay = True  # the env takes the recorded actions (False: its options differ from the dataset's)
 
+    def warm(self) -> None:
+        """Start building the scene now (MuJoCo's model, the renderer), while the browser loads the page."""
+        s = self.session
+        if not s.cameras and s.episodes:
+            self.worker.submit(self._frame, min(s.episodes), 0, False)
+
     def frame(self, e: int, k: int) -> bytes:
         """Frame ``k`` of episode ``e`` as a JPEG."""
         return self.worker.submit(self._frame, e, k, False).result()
@@ -196,7 +202,7 @@ class Frames:
         env = stage.env
         if not env.config.base_position:
             cam.lookat[:] = (stage.workspace + env.data.mocap_pos[env._mocap]) / 2
-            cam.distance, cam.elevation = 0.7 * env.view_distance_m, -25.0
+            cam.distance, cam.elevation = 0.6 * env.view_distance_m, -25.0
         return cam
 
     def _close(self) -> None:

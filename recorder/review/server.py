@@ -36,6 +36,7 @@ class Review:
 
     def serve(self) -> None:
         """Until Ctrl-C (KeyboardInterrupt) or ``close``."""
+        self.frames.warm()
         try:
             self.server.serve_forever(poll_interval=0.2)
         finally:

@@ -22,6 +22,7 @@ from recorder.record.inspect import _action_state_pairs, dataset_root
 from recorder.record.sidecar import read_sidecar
 from recorder.review.publish import publish
 
+_START = "stats/time.device_s/min"  # the first frame's device time: how read_sidecar matches its records
 _EPISODE_COLUMNS = ("episode_index", "tasks", "length", "data/chunk_index", "data/file_index", "dataset_from_index")
 
 
@@ -46,18 +47,18 @@ class Session:
         self._open()
 
     def _open(self) -> None:
-        if self.hub is not None:
+        if self.hub is not None:  # every file checked against the manifest of a version that push checked
             v = self.hub.checked(self.repo_id, self.version)
             self.src, self.tag = v.path, v.tag
         else:
             self.tag = None
-        check_dataset(self.src)  # a damaged dataset: one line, before anything reads it
+            check_dataset(self.src)  # a damaged dataset: one line, before anything reads it
         self.info = json.loads((self.src / "meta" / "info.json").read_text())
         self.fps = float(self.info["fps"])
         self.features = self.info["features"]
         self.cameras = [k for k, f in self.features.items() if f["dtype"] == "video"]
         self.episodes = _episode_meta(self.src)
-        self.records = {int(r["episode_index"]): r for r in read_sidecar(self.src)}
+        self.records = {int(r["episode_index"]): r for r in read_sidecar(self.src, _keys(self.episodes))}
         self.lengths = {e: int(m["length"]) for e, m in self.episodes.items()}
         self.pending: dict[int, dict] = {}
         self._rows = lru_cache(maxsize=8)(self._read_rows)
@@ -210,11 +211,23 @@ class Session:
 
 
 def _episode_meta(root: Path) -> dict[int, dict]:
-    """LeRobot's episode metadata (meta/episodes/*.parquet), without its per-episode statistics."""
+    """LeRobot's episode metadata (meta/episodes/*.parquet), without its per-episode statistics but the first
+    frame's device time (read_sidecar's key)."""
     out = {}
     for f in sorted((root / "meta" / "episodes").glob("*/*.parquet")):
-        names = pq.read_schema(f).names
-        columns = [c for c in names if c in _EPISODE_COLUMNS or c.startswith("videos/")]
-        for row in pq.read_table(f, columns=columns).to_pylist():
+        file = pq.ParquetFile(f)
+        names = file.schema_arrow.names
+        columns = [c for c in names if c in _EPISODE_COLUMNS or c.startswith("videos/") or c == _START]
+        for row in file.read(columns=columns).to_pylist():
             out[int(row["episode_index"])] = row
     return out
+
+
+def _keys(episodes: dict[int, dict]) -> dict[int, tuple[int, float | None]]:
+    """read_sidecar's key of each episode: its length and first frame's device time (None without one)."""
+    keys = {}
+    for e, row in episodes.items():
+        start = row.get(_START)
+        start = start[0] if isinstance(start, list) else start  # stats of a 1-d feature are 1-element lists
+        keys[e] = (int(row["length"]), None if start is None else float(start))
+    return keys

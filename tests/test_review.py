@@ -15,7 +15,7 @@ import pytest
 from lerobot.datasets.lerobot_dataset import LeRobotDataset
 from PIL import Image
 
-from conftest import POSE_REPO, cli, wait_for
+from conftest import POSE_REPO, cli, gloverec, wait_for
 from recorder import GloverecError
 
 SCREENSHOTS = os.environ.get("GLOVEREC_SCREENSHOTS")  # a folder: keep the page's screenshot (docs/images/review.png)
@@ -136,6 +136,26 @@ def test_the_player_renders_frames_of_a_camera_less_episode_on_request(pose_reco
         frames.close()
     plots = session.plots(0)
     assert plots["frames"] == session.lengths[0] and len(plots["series"][0]["action"]) == plots["frames"]
+
+
+@pytest.mark.process
+def test_the_player_shows_a_camera_episode_decoded_from_its_video(tmp_path):
+    from recorder.review.frames import Frames
+    from recorder.review.session import Session
+
+    root = tmp_path / "cam"
+    r = gloverec("record", "--task", "pose", "--episodes", "2", "--episode-time-s", "1", "--cameras", "front",
+                 "--root", str(root), "--repo-id", "test/cam", "--fast", "--no-log", "--json", timeout=120)  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    session = Session("test/cam", root=str(root))
+    frames = Frames(session)
+    try:
+        last = session.lengths[1] - 1
+        image = np.asarray(Image.open(io.BytesIO(frames.frame(1, last))))
+        assert image.shape == (128, 128, 3) and image.std() > 5  # the camera's frame, as recorded
+        assert len(frames.decoded[1]) == session.lengths[1]  # the episode's segment, no more
+    finally:
+        frames.close()
 
 
 def test_bad_edits_on_the_page_are_one_line_and_change_nothing(pose_recording, tmp_path):

@@ -14,7 +14,6 @@ Writes bench/results/human_demos.json.
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 import tempfile
@@ -22,22 +21,12 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import gloverec, write_results  # noqa: E402
+from _common import gloverec, wilson, write_results  # noqa: E402
 
 EVAL_SEED = 100_000  # bench/learning.py's: seeds no demonstration was recorded with
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
-
-
-def wilson(successes: int, n: int, z: float = 1.96) -> list[float]:
-    """The Wilson score interval of a success rate (Wilson 1927), as [low, high]."""
-    if n == 0:
-        return [0.0, 1.0]
-    p = successes / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return [round(centre - half, 3), round(centre + half, 3)]
 
 
 def record(task: str, robot: str, demonstrator: str, args, tmp: Path) -> dict:

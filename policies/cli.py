@@ -36,6 +36,9 @@ def add_parsers(subparsers) -> None:
     _dataset_flags(t)
     t.add_argument("--policy", choices=("bc",), default="bc", help="the policy to train (default bc)")
     t.add_argument("--out", required=True, help="output folder: checkpoints, loss curve, split, summary")
+    t.add_argument("--also", nargs="+", default=[], metavar="DATASET",
+                   help="train on these datasets too: hub ids USER/NAME[@vN] (in --hub's hub) or dataset folders, "
+                   "e.g. takeover recordings (same robot, rate and policy inputs)")  # fmt: skip
     t.add_argument("--resume", action="store_true", help="continue from OUT/checkpoints/last")
     t.add_argument("--config", help="a train YAML file (keys: the fields of policies/config.py TrainConfig)")
     config.add_arguments(t, TrainConfig)
@@ -110,10 +113,12 @@ def cmd_train(args: argparse.Namespace) -> int:
 
     cfg = TrainConfig.load(args.config, **config.overrides(args, TrainConfig))
     ref = resolve(args.repo_id, args.hub, args.root, args.version)
+    also = tuple(_also(text, args.hub) for text in args.also)
+    if args.resume and also:
+        raise GloverecError("--resume trains on the datasets it started with: leave out --also")
     with _quiet_stdout(args.json), _setup(args.threads):
-        summary = train(
-            ref, args.out, cfg, policy=args.policy, resume=args.resume, progress=sys.stderr.isatty() or not args.json
-        )
+        summary = train(ref, args.out, cfg, policy=args.policy, resume=args.resume,
+                        progress=sys.stderr.isatty() or not args.json, also=also)  # fmt: skip
     if args.json:
         print(json.dumps(summary))
     else:
@@ -131,6 +136,22 @@ def cmd_train(args: argparse.Namespace) -> int:
         print(f"policy: {summary['policy']}")
         print(f"loss curve: {summary['loss_curve']}")
     return 0
+
+
+def _also(text: str, hub: str | None):
+    """An --also dataset: a folder holding one (its id: the folder's last two names), else USER/NAME[@vN] in the
+    hub."""
+    from pathlib import Path
+
+    from policies.data import resolve
+
+    folder = Path(text)
+    if (folder / "meta" / "info.json").is_file():
+        return resolve(f"{folder.absolute().parent.name}/{folder.name}", root=folder)  # as a recording's root names it
+    if folder.exists():
+        raise GloverecError(f"--also {text}: not a LeRobot dataset (no meta/info.json)")
+    repo_id, _, version = text.partition("@")
+    return resolve(repo_id, hub, None, version or None)
 
 
 def cmd_eval(args: argparse.Namespace) -> int:

@@ -31,6 +31,14 @@ class TrainConfig:
         flag="--all-episodes",
         sets=False,
     )
+    intervention_weight: Annotated[float, NonNegative] = setting(
+        1.0, "takeover recordings: draw the frames the wearer drove this many times as often as a demonstration's"
+    )
+    policy_frames: bool = setting(
+        False,
+        "takeover recordings: train on the frames the policy drove too (default: only the wearer's, as HG-DAgger)",
+        flag="--policy-frames",
+    )
     val_every: Annotated[int, Positive] | None = setting(None, "validation every N steps (default: steps / 20)")
     save_every: Annotated[int, Positive] | None = setting(1000, "a checkpoint every N steps, and at the end")
     policy: dict = setting(default_factory=dict, help="fields of the policy's LeRobot config", cli=False)

@@ -27,6 +27,7 @@ from recorder.hub.store import Hub
 from recorder.record.sidecar import read_sidecar
 from recorder.video_backend import video_backend
 
+PLAIN, WEARER, POLICY = 0, 1, 2  # who drove a frame (FrameCache.driver)
 MIN_STD = 1e-3  # floor of the normalisation std: features (nearly) constant in the demonstrations stay O(1)
 
 
@@ -80,10 +81,11 @@ def sidecar(root: Path) -> dict[int, dict]:
 def split_episodes(meta, root: Path, val_fraction: float, seed: int, successful_only: bool) -> tuple[list, list]:
     """(train, validation) episode indices: a seeded shuffle, the last ``val_fraction`` for validation
     (at least one when there are two or more episodes). ``successful_only`` keeps the episodes our sidecar
-    marks successful (all of them when the dataset has no sidecar)."""
+    marks successful (all of them when the dataset has no sidecar, or is a takeover recording: the wearer's frames
+    are the expert's labels even where the episode failed after the policy's mistakes, as in HG-DAgger)."""
     episodes = list(range(meta.total_episodes))
     side = sidecar(root)
-    if successful_only and side:
+    if successful_only and side and "intervention" not in meta.features:
         episodes = [e for e in episodes if side.get(e, {}).get("success", True)]
         if not episodes:
             raise GloverecError(
@@ -101,7 +103,9 @@ def split_episodes(meta, root: Path, val_fraction: float, seed: int, successful_
 
 class FrameCache:
     """Every frame of some episodes as stacked tensors: the policy's inputs, ``action`` (chunks) and
-    ``action_is_pad``. ``batch(indices)`` gives a training batch; images come back as float in [0, 1]."""
+    ``action_is_pad``. ``batch(indices)`` gives a training batch; images come back as float in [0, 1].
+    ``driver`` says who drove each frame: PLAIN (a demonstration), WEARER or POLICY (a takeover recording's
+    ``intervention`` flag, recorder/record/takeover.py)."""
 
     def __init__(
         self,
@@ -114,6 +118,7 @@ class FrameCache:
 
         self.episodes = list(episodes)
         self.data: dict[str, torch.Tensor] = {}
+        self.driver = torch.zeros(0, dtype=torch.uint8)
         if not episodes:
             return
         ds = LeRobotDataset(
@@ -125,6 +130,8 @@ class FrameCache:
         )
         wanted = [k for k in (*keys, "action_is_pad") if k in ds.features or k == "action_is_pad"]
         columns: dict[str, list] = {k: [] for k in wanted}
+        takeover = "intervention" in ds.features
+        driver = []
         for i in tqdm(
             range(len(ds)), desc=f"loading {len(episodes)} episode(s)", unit="frame", disable=not progress, leave=False
         ):
@@ -133,7 +140,32 @@ class FrameCache:
                 if k in item:
                     v = item[k]
                     columns[k].append((v * 255).round().to(torch.uint8) if self._is_image(k, v) else v)
+            driver.append((WEARER if bool(item["intervention"]) else POLICY) if takeover else PLAIN)
         self.data = {k: torch.stack(v) for k, v in columns.items() if v}
+        self.driver = torch.tensor(driver, dtype=torch.uint8)
+
+    @classmethod
+    def join(cls, caches: list[FrameCache]) -> FrameCache:
+        """The frames of several datasets' caches as one (their features checked alike by the caller)."""
+        out = cls.__new__(cls)
+        full = [c for c in caches if c.data]
+        out.episodes = [e for c in caches for e in c.episodes]
+        out.data = {k: torch.cat([c.data[k] for c in full]) for k in (full[0].data if full else {})}
+        out.driver = torch.cat([c.driver for c in caches]) if caches else torch.zeros(0, dtype=torch.uint8)
+        return out
+
+    def weights(self, intervention_weight: float, policy_frames: bool) -> torch.Tensor | None:
+        """How often to draw each frame, relative to a demonstration's (None: all alike): the wearer's frames of a
+        takeover recording ``intervention_weight``, the policy's 1 with ``policy_frames`` else 0 (HG-DAgger learns
+        from the expert's labels only: the policy's own frames would teach it its mistakes)."""
+        if not bool((self.driver != PLAIN).any()) or (intervention_weight == 1.0 and policy_frames):
+            return None
+        w = torch.ones(len(self.driver), dtype=torch.float64)
+        w[self.driver == WEARER] = intervention_weight
+        w[self.driver == POLICY] = 1.0 if policy_frames else 0.0
+        if not bool((w > 0).any()):
+            raise GloverecError("no frames to train on: every frame was driven by the policy (pass --policy-frames)")
+        return w
 
     @staticmethod
     def _is_image(key: str, value) -> bool:

@@ -298,6 +298,21 @@ def check_features(agent: PolicyAgent, env, task: str, robot: str) -> None:
             )
 
 
+def load_for_recording(path: str | Path, env, task: str, robot: str, fps: float) -> PolicyAgent:
+    """A checkpoint that will drive ``env``, a takeover recording's (`gloverec record --policy`): one line when it
+    was trained for another task, robot or rate, or reads what ``env`` does not observe."""
+    agent = load_policy(path)
+    trained_task, trained_robot = trained_setup(agent.context)
+    if (trained_task and trained_task != task) or (trained_robot and trained_robot != robot):
+        trained = f"{trained_task or '?'} on {trained_robot or '?'}"
+        raise GloverecError(f"the policy in {agent.path} was trained for {trained}, not {task} on {robot}")
+    trained_fps = agent.context.get("fps")
+    if trained_fps and float(trained_fps) != float(fps):
+        raise GloverecError(f"the policy in {agent.path} acts at {trained_fps:g} Hz: record with --fps {trained_fps:g}")
+    check_features(agent, env, task, robot)
+    return agent
+
+
 # ---------------------------------------------------------------- the harness
 
 

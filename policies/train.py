@@ -9,6 +9,9 @@ optimiser presets and checkpoint layout, plus a train/validation split by episod
     OUT/checkpoints/last -> 000500
     OUT/loss_curve.png  OUT/split.json  OUT/train_summary.json
 
+``also``: more datasets trained on with the first (the same robot, rate and policy inputs; other features may
+differ, so plain demonstrations and takeover recordings train together): each split by episode the same way, their
+frames drawn together, a takeover recording's by who drove them (policies/data.py FrameCache.weights).
 Normalisation statistics come from the training episodes only. ``resume`` continues from checkpoints/last
 with the same split, weights, optimiser, scheduler and RNG state: N steps then N more equal 2N in one go.
 """
@@ -43,7 +46,7 @@ from tqdm import tqdm
 
 import policies.bc  # noqa: F401  (registers gloverec_bc)
 from policies.config import TrainConfig
-from policies.data import DatasetRef, FrameCache, load_meta, sidecar, split_episodes
+from policies.data import DatasetRef, FrameCache, load_meta, resolve, sidecar, split_episodes
 from recorder import GloverecError
 from recorder.video_backend import video_backend
 
@@ -71,9 +74,16 @@ def _policy_config(policy: str, cfg: TrainConfig):
 
 
 def train(
-    ref: DatasetRef, out: str | Path, cfg: TrainConfig, policy: str = "bc", resume: bool = False, progress: bool = True
+    ref: DatasetRef,
+    out: str | Path,
+    cfg: TrainConfig,
+    policy: str = "bc",
+    resume: bool = False,
+    progress: bool = True,
+    also: tuple[DatasetRef, ...] = (),
 ) -> dict:
-    """Train (or resume) a policy on ``ref``; returns the summary also written to OUT/train_summary.json."""
+    """Train (or resume) a policy on ``ref`` (and the datasets ``also``); returns the summary also written to
+    OUT/train_summary.json."""
     if policy not in POLICY_TYPES:
         raise GloverecError(f"unknown policy {policy!r}; valid: {', '.join(POLICY_TYPES)}")
     out = Path(out)
@@ -93,6 +103,8 @@ def train(
         if split["dataset"]["repo_id"] != ref.repo_id:
             raise GloverecError(f"{out} was trained on {split['dataset']['repo_id']}, not {ref.repo_id}")
         train_eps, val_eps = split["train"], split["validation"]
+        also = tuple(resolve(a["repo_id"], root=a["root"]) for a in split.get("also", []))
+        splits = [(a, t, v) for a, t, v in zip(also, split.get("also_train", []), split.get("also_validation", []))]
         policy_cfg = PreTrainedConfig.from_pretrained(pretrained)
         policy_cfg.pretrained_path = pretrained
         history = json.loads((last / "loss_history.json").read_text())
@@ -100,14 +112,22 @@ def train(
     else:
         policy_cfg = _policy_config(policy, cfg)
         train_eps, val_eps = split_episodes(meta, ref.root, cfg.val_fraction, cfg.seed, cfg.successful_only)
+        splits = [(a, *split_episodes(load_meta(a), a.root, cfg.val_fraction, cfg.seed, cfg.successful_only))
+                  for a in also]  # fmt: skip
         set_seed(cfg.seed)
     with contextlib.redirect_stdout(io.StringIO()):  # lerobot prints "Loading weights from local directory"
         policy_obj = make_policy(policy_cfg, ds_meta=meta)
     keys = [*policy_obj.config.input_features, "action"]
     delta = resolve_delta_timestamps(policy_obj.config, meta)
-    _say(f"loading {ref.repo_id} ({ref.root}): {len(train_eps)} training and {len(val_eps)} validation episodes")
-    train_cache = FrameCache(ref, train_eps, keys, delta, progress)
-    val_cache = FrameCache(ref, val_eps, keys, delta, progress)
+    for a, _, _ in splits:
+        _check_alike(meta, ref, load_meta(a), a, keys)
+    train_caches, val_caches = [], []
+    for r, t, v in [(ref, train_eps, val_eps), *splits]:
+        _say(f"loading {r.repo_id} ({r.root}): {len(t)} training and {len(v)} validation episodes")
+        train_caches.append(FrameCache(r, t, [*keys, "intervention"], delta, progress))
+        val_caches.append(FrameCache(r, v, [*keys, "intervention"], delta, progress))
+    train_cache, val_cache = FrameCache.join(train_caches), FrameCache.join(val_caches)
+    weights = train_cache.weights(cfg.intervention_weight, cfg.policy_frames)
     if resume:
         pre, post = make_pre_post_processors(policy_obj.config, pretrained_path=str(pretrained))
     else:
@@ -124,6 +144,9 @@ def train(
                     "successful_only": cfg.successful_only,
                     "train": train_eps,
                     "validation": val_eps,
+                    "also": [a.as_dict() for a, _, _ in splits],
+                    "also_train": [t for _, t, _ in splits],
+                    "also_validation": [v for _, _, v in splits],
                 },
                 indent=1,
             )
@@ -156,6 +179,7 @@ def train(
             _say(f"already trained to step {start}: pass a larger --steps to train on")
 
     extras = _checkpoint_extras(ref, meta)
+    extras["also"] = [a.as_dict() for a, _, _ in splits]
     n = len(train_cache)
     policy_obj.train()
     bar = tqdm(
@@ -183,6 +207,7 @@ def train(
             history,
             extras,
             out,
+            weights,
         )
     except KeyboardInterrupt:
         bar.close()
@@ -202,8 +227,11 @@ def train(
         "steps": cfg.steps,
         "start_step": start,
         "batch_size": cfg.batch_size,
-        "train_episodes": len(train_eps),
-        "val_episodes": len(val_eps),
+        "also": [a.as_dict() for a, _, _ in splits],
+        "train_episodes": len(train_cache.episodes),
+        "val_episodes": len(val_cache.episodes),
+        "frames_by_wearer": int((train_cache.driver == 1).sum()),
+        "frames_by_policy": int((train_cache.driver == 2).sum()),
         "train_frames": n,
         "val_frames": len(val_cache),
         "final_train_loss": final.get("train_loss"),
@@ -216,14 +244,33 @@ def train(
 
 
 def _loop(
-    bar, train_cache, val_cache, pre, post, policy_obj, optimizer, scheduler, tcfg, cfg, val_every, history, extras, out
+    bar,
+    train_cache,
+    val_cache,
+    pre,
+    post,
+    policy_obj,
+    optimizer,
+    scheduler,
+    tcfg,
+    cfg,
+    val_every,
+    history,
+    extras,
+    out,
+    weights=None,
 ) -> None:
-    """The training steps from the bar's position to cfg.steps: validation, history and checkpoints."""
+    """The training steps from the bar's position to cfg.steps: validation, history and checkpoints. ``weights``:
+    how often to draw each training frame (None: uniformly)."""
 
     n = len(train_cache)
     running: list[float] = []
     for step in bar:
-        batch = pre(train_cache.batch(torch.randint(n, (cfg.batch_size,))))
+        if weights is None:
+            picked = torch.randint(n, (cfg.batch_size,))
+        else:
+            picked = torch.multinomial(weights, cfg.batch_size, replacement=True)
+        batch = pre(train_cache.batch(picked))
         loss, _ = policy_obj.forward(batch)
         optimizer.zero_grad(set_to_none=True)
         loss.backward()
@@ -247,6 +294,21 @@ def _loop(
             bar.set_postfix(train=f"{history[-1]['train_loss']:.4f}", val="-" if val is None else f"{val:.4f}")
         if done % tcfg.save_freq == 0 or done == cfg.steps:
             _save(out, done, tcfg, policy_obj, optimizer, scheduler, pre, post, history, extras)
+
+
+def _check_alike(meta, ref: DatasetRef, other, other_ref: DatasetRef, keys: list[str]) -> None:
+    """One line when ``other`` cannot train with ``ref``: another rate, or a policy input or the action missing or
+    shaped or named otherwise."""
+    if other.fps != meta.fps:
+        raise GloverecError(f"{other_ref.repo_id} is recorded at {other.fps} fps, {ref.repo_id} at {meta.fps}: "
+                            "train them apart")  # fmt: skip
+    for key in keys:
+        mine, theirs = meta.features.get(key), other.features.get(key)
+        if theirs is None:
+            raise GloverecError(f"{other_ref.repo_id} has no {key}, which the policy reads in {ref.repo_id}")
+        if tuple(mine["shape"]) != tuple(theirs["shape"]) or mine.get("names") != theirs.get("names"):
+            raise GloverecError(f"{key} differs between {ref.repo_id} and {other_ref.repo_id} (shape or names): "
+                                "another robot or task?")  # fmt: skip
 
 
 def _validation_loss(policy, pre, cache: FrameCache, batch_size: int) -> float | None:

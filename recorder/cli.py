@@ -108,7 +108,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     calibrate_cli.add_parser(sub)
     view_cli.add_parser(sub)
-    record_cli.add_parsers(sub)
+    record_cli.add_parsers(sub, load_policy=_load_policy)
     record_cli.add_rerecord_parser(sub)
     inspect_cli.add_parsers(sub)
     _edit_parser(sub)
@@ -273,6 +273,13 @@ def cmd_edit(args) -> int:
         what = "; ".join(filter(None, (summary["edits"], f"merged {' '.join(args.merge)}" if args.merge else "")))
         print(f"{where}: {summary['episodes']} episodes, {summary['frames']} frames ({what}; from {src})")
     return 0
+
+
+def _load_policy(path, env, task: str, robot: str, fps: float):
+    """`gloverec record --policy`: the checkpoint, checked against the recording's environment."""
+    from policies.evaluate import load_for_recording  # torch and lerobot: not at start-up
+
+    return load_for_recording(path, env, task, robot, fps)
 
 
 def cmd_wrist(args) -> int:

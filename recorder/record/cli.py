@@ -12,12 +12,14 @@ from recorder.record.config import RecordConfig
 RERECORD_FIELDS = ("repo_id", "root", "robot", "task", "fps", "retarget", "cameras", "wearer")
 
 
-def add_parsers(sub) -> None:
+def add_parsers(sub, load_policy=None) -> None:
+    """``load_policy(path, env, task, robot, fps) -> agent``: what loads a --policy checkpoint (policies/ is a layer
+    above this one)."""
     r = sub.add_parser("record", help="record demonstrations from a glove into a LeRobot dataset")
     r.add_argument("--config", help="a record YAML file (keys: the flags' names with _); flags override it")
     config.add_arguments(r, RecordConfig)
     r.add_argument("--json", action="store_true", help="print a JSON summary at the end")
-    r.set_defaults(func=run_record)
+    r.set_defaults(func=run_record, load_policy=load_policy)
 
 
 def run_record(args: argparse.Namespace) -> int:
@@ -29,7 +31,9 @@ def run_record(args: argparse.Namespace) -> int:
 
     from recorder.record.recorder import record  # loads lerobot, torch and mujoco: not at start-up
 
-    summary = record(cfg, profile)
+    load = args.load_policy
+    agent = (lambda env: load(cfg.policy, env, cfg.task, cfg.robot, cfg.fps)) if cfg.policy is not None else None
+    summary = record(cfg, profile, agent)
     if args.json:
         print(json.dumps(summary))
     elif summary["interrupted"]:  # Ctrl-C: what was kept and how to go on; the exit status stays 130

@@ -109,6 +109,19 @@ class RecordConfig:
     failure_rate: Annotated[float, NonNegative] = setting(
         0.15, "--demonstrator human: the share of takes the wearer gets wrong (0 to 1)"
     )
+    policy: str | None = setting(
+        None,
+        "a trained policy (a checkpoint or training folder) that drives the hand while the glove is read: the "
+        "wearer takes over with t or the glove's button (takeover recording, docs/recording.md)",
+        metavar="DIR",
+    )
+    takeover: bool = setting(
+        False, "with --policy: the wearer also takes over by moving away from the policy's hand", flag="--takeover"
+    )
+    takeover_threshold: Annotated[float, Positive] = setting(
+        0.15, "--takeover: the departure that counts (the largest share of an action element's range, 0 to 1)"
+    )
+    takeover_hold_s: Annotated[float, NonNegative] = setting(0.3, "--takeover: held this long, in seconds")
     seed: int = setting(0, "episode k of a session resets the environment with seed + k")
     log: bool = setting(True, "no raw MCAP log of the session beside the dataset", flag="--no-log")
     task_text: str | None = setting(None, "the task string stored with every frame (default: the task's)")
@@ -159,6 +172,12 @@ class RecordConfig:
             if self.wrist_config.kind != SCRIPTED:
                 raise cfg.ConfigError(f"--demonstrator {self.demonstrator} moves the fingers only: record without "
                                       "--wrist")  # fmt: skip
+        if self.takeover and self.policy is None:
+            raise cfg.ConfigError("--takeover passes control from a policy to the wearer: pass --policy DIR too")
+        if self.policy is not None and not Path(self.policy).exists():
+            raise cfg.ConfigError(f"--policy {self.policy}: no such folder")
+        if self.policy is not None and self.takeover_threshold >= 1.0:
+            raise cfg.ConfigError(f"--takeover-threshold {self.takeover_threshold:g}: expected a share below 1")
         task = get_task(self.task).config_class.load(self.task, **self.task_options())
         if self.episode_time_s is not None and self.episode_time_s <= task.min_episode_s():
             raise cfg.ConfigError(

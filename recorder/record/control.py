@@ -2,8 +2,9 @@
 
 On a terminal, stdin is put in cbreak mode and single keys act at once: → (or n, Enter) ends the episode and
 saves it, ← (or r) re-records it, Esc (or q) stops the session after saving what is done, z re-takes host
-fusion's reference pose (hold the hand in it). When stdin is not a terminal (a pipe, a script), whole lines do
-the same: "next", "rerecord", "stop", "zero" (or "reset"). The glove's reset button (an event frame) ends the
+fusion's reference pose (hold the hand in it), t passes control between the policy and the wearer in a takeover
+recording. When stdin is not a terminal (a pipe, a script), whole lines do the same: "next", "rerecord", "stop",
+"zero" (or "reset"), "takeover". The glove's reset button (an event frame) ends the
 episode like → and re-takes the reference pose like z.
 """
 
@@ -16,7 +17,7 @@ import termios
 import threading
 import tty
 
-NEXT, RERECORD, STOP, RESET = "next", "rerecord", "stop", "reset"
+NEXT, RERECORD, STOP, RESET, TAKEOVER = "next", "rerecord", "stop", "reset", "takeover"
 
 _KEYS = {
     b"\x1b[C": NEXT,
@@ -28,6 +29,7 @@ _KEYS = {
     b"\x1b": STOP,
     b"q": STOP,
     b"z": RESET,
+    b"t": TAKEOVER,
 }
 _LINES = {
     "next": NEXT,
@@ -40,6 +42,8 @@ _LINES = {
     "zero": RESET,
     "reset": RESET,
     "z": RESET,
+    "takeover": TAKEOVER,
+    "t": TAKEOVER,
 }
 
 

@@ -32,6 +32,7 @@ class Row:
     device_s: float
     task: str
     wrist: object = None  # a free wrist's FusedWrist (recorder/wrist/fusion.py); None: the task scripts the base
+    takeover: object = None  # a takeover recording's Decision (recorder/record/takeover.py)
 
 
 @dataclass(frozen=True)
@@ -54,7 +55,7 @@ def _vector(key: str) -> Callable[[Row], np.ndarray]:
 class DatasetSchema:
     """The features of a recording of ``env`` (an unwrapped gloverec HandEnv); ``use_videos``: cameras as video."""
 
-    def __init__(self, env, use_videos: bool):
+    def __init__(self, env, use_videos: bool, takeover: bool = False):
         self.features = [
             Feature(
                 "observation.state",
@@ -139,6 +140,28 @@ class DatasetSchema:
                     ("wrist_age_ms",),
                     lambda r: _scalar(r.wrist.age_s * 1e3),
                     "since the tracker's newest pose was captured",
+                ),
+            ]
+        if takeover:  # a policy ran the hand and the wearer took over (recorder/record/takeover.py)
+            self.features += [
+                Feature(
+                    "intervention",
+                    ("intervention",),
+                    lambda r: np.array([r.takeover.intervention], bool),
+                    "1: the wearer drove this frame (the applied action is the glove's); 0: the policy did",
+                    "bool",
+                ),
+                Feature(
+                    "policy.action",
+                    tuple(env.action_names),
+                    lambda r: np.asarray(r.takeover.policy_action, np.float32),
+                    "the action the policy proposed for this frame (applied when intervention is 0)",
+                ),
+                Feature(
+                    "quality.departure",
+                    ("departure",),
+                    lambda r: _scalar(r.takeover.departure),
+                    "the wearer's action's departure from the policy's: the largest share of an element's range",
                 ),
             ]
         h, w = env.config.image_size

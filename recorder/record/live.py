@@ -52,6 +52,7 @@ class LiveView:
         self._status_at = -1.0
         self._glove: dict = {}
         self._late_ms = 0.0  # the loop's latest ticks, how late at most: views draw less when it is late
+        self.control: str | None = None  # a takeover recording's driver now: "policy" or "wearer"
         self.wrist: dict | None = None  # the status' wrist now (recorder/view/wrist.py); None: the task scripts it
 
     @property
@@ -110,6 +111,8 @@ class LiveView:
                       saved=self.saved, successes=self.successes, glove=self._glove)  # fmt: skip
         if self.wrist is not None:
             status["wrist"] = self.wrist
+        if self.control is not None:
+            status["control"] = self.control
         self.view.publish(frame_of(self.env, status, self.glove.track.newest, wrist))
 
     def _health(self, stats) -> dict:

@@ -28,10 +28,11 @@ from recorder.hand.profile import HandProfile, wearer_profile
 from recorder.log.writer import McapLogger
 from recorder.record.clock import ENDED, LOST, clock_for
 from recorder.record.config import RecordConfig
-from recorder.record.control import NEXT, RERECORD, STOP, Control
+from recorder.record.control import NEXT, RERECORD, STOP, TAKEOVER, Control
 from recorder.record.features import DatasetSchema, Row
 from recorder.record.live import LiveView
 from recorder.record.store import EpisodeStore
+from recorder.record.takeover import WEARER, Takeover, TakeoverConfig
 from recorder.record.writer import EpisodeWriter
 from recorder.retarget import Retargeter
 from recorder.wrist import open_wrist
@@ -58,6 +59,7 @@ class EpisodeStats:
     jitter_s: list = field(default_factory=list)
     latency_s: list = field(default_factory=list)
     retarget_mm: list = field(default_factory=list)
+    by_wearer: int = 0  # a takeover recording's frames the wearer drove
     wrist_lost: int = 0  # frames whose wrist the tracker did not see (held, or catching up)
     wrist_delays_s: list = field(default_factory=list)  # per live tracker pose: (its tracking, stamp to applied)
 
@@ -95,8 +97,12 @@ class Recorder:
         out=STDERR,
         plan=None,
         profile: HandProfile | None = None,
+        agent=None,
     ):
-        """``plan``: (seed, device_start_s, frames) per episode, to re-record a log's episodes exactly
+        """``agent(env) -> policy``: with ``cfg.policy``, what loads and checks that policy for this environment (an
+        object with ``reset(env, seed)`` and ``act(obs) -> action``; the command passes it, policies/ being a layer
+        above this one): it drives the hand and the wearer takes over (recorder/record/takeover.py).
+        ``plan``: (seed, device_start_s, frames) per episode, to re-record a log's episodes exactly
         (`gloverec rerecord`); episodes then start at those device times instead of at buttons or keys.
         ``profile``: the wearer's hand (default: ``cfg.wearer``'s saved profile, or the reference hand)."""
         self.cfg = cfg
@@ -121,7 +127,15 @@ class Recorder:
         if wrist.emulated and self.demonstrator is None:
             raise GloverecError("--wrist marker:emulated films the emulated wearer: record with --glove emulator")
         self.demo = None  # the demonstration being performed (its plan)
-        self.schema = DatasetSchema(self.u, use_videos=bool(cfg.cameras))
+        if (agent is None) != (cfg.policy is None):
+            raise GloverecError("a takeover recording needs its policy loaded: record it with `gloverec record`")
+        self.agent = agent(self.env) if agent is not None else None  # a wrong policy: one line, before any file
+        space = self.env.action_space
+        self.takeover = None
+        if agent is not None:
+            config = TakeoverConfig(cfg.takeover_threshold, cfg.takeover_hold_s, auto=cfg.takeover)
+            self.takeover = Takeover(config, space.low, space.high, cfg.fps)
+        self.schema = DatasetSchema(self.u, use_videos=bool(cfg.cameras), takeover=agent is not None)
         self.store = EpisodeStore(
             cfg.root_path,
             cfg.repo_id,
@@ -299,6 +313,10 @@ class Recorder:
         self.task_text = self.live.task_text = self.cfg.task_text or self.u.instruction()
         self.live.seed = seed
         self.retarget.reset()
+        if self.agent is not None:
+            self.agent.reset(self.env, seed)
+            self.takeover.reset()
+            self.live.control = "policy"
         self.demo = None
         if self.demonstrator is not None:
             self.demo = self.demonstrator.plan(self.u, seed=seed)
@@ -407,7 +425,11 @@ class Recorder:
             if what in (NEXT, STOP):
                 stop_after = what == STOP
                 break
-            if g.take_button() is not None and self.demonstrator is None and self.plan is None:
+            button = g.take_button() is not None
+            if (what == TAKEOVER or button and self.demonstrator is None) and self.takeover is not None:
+                self.takeover.toggle()  # the key, or a wearer's button: control to the other one
+                self.live.control = self.takeover.who
+            elif button and self.demonstrator is None and self.plan is None:
                 break  # the glove's button ends the episode (the demonstrator uses it to start one; a re-recorded
                 # log's episodes end where they ended)
             if done:
@@ -467,6 +489,11 @@ class Recorder:
             stats.wrist_lost += not wrist.tracked
         palm = at.pose.palm if wrist is None else wrist.quat
         action, rinfo = self.retarget(at.pose.angles, palm, None if wrist is None else wrist.position)
+        decision = None
+        if self.agent is not None:  # the policy drives unless the wearer has taken over
+            decision = self.takeover.decide(self.agent.act(obs), action)
+            action = decision.action
+            self.live.control = self.takeover.who
         latency = self.clock.latency(at)
         nxt, _, terminated, truncated, info = self.env.step(action)
         if self.wrist is not None:
@@ -474,10 +501,11 @@ class Recorder:
         if self.demo is not None:
             self.demo.watch(self.u, into=self.glove)  # a demonstrator that watches corrects what is still ahead
         row = Row(obs, info["applied_action"], at.pose, latency, at.age_s, rinfo["tip_error_mean"], host_tick,
-                  device_time, self.task_text, wrist)  # fmt: skip
+                  device_time, self.task_text, wrist, decision)  # fmt: skip
         self.live.recording(index, k, n_max, stats, wrist)
         self.store.add_frame(self.schema.frame(row))
         stats.frames += 1
+        stats.by_wearer += bool(decision is not None and decision.intervention)
         if latency is not None:
             stats.latency_s.append(latency)
         stats.retarget_mm.append(rinfo["tip_error_mean"] * 1e3)
@@ -502,6 +530,9 @@ class Recorder:
             "start_device_time_s": device_start,
             **stats.summary(self.glove.counters()),
         }
+        if self.takeover is not None:
+            result["takeover"] = {"policy": self.cfg.policy, "frames_by_wearer": stats.by_wearer,
+                                  **self.takeover.summary()}  # fmt: skip
         if self.demo is not None and self.demo.intent is not None:
             result["demonstration"] = self.demo.intent  # what the human-like wearer meant: strategy, failure
         if self.logger is not None:
@@ -539,6 +570,8 @@ class Recorder:
             f"episode {index}  frame {k + 1}/{n}  late {stats.held}  overruns {stats.overruns}  "
             f"latency p99 {lat:.1f} ms  glove {'up' if self.glove.connected else 'DOWN'}"
         )
+        if self.takeover is not None:
+            line += f"  control {'WEARER' if self.takeover.who == WEARER else 'policy'}"
         self.out.write("\r\x1b[K" + self.live.with_wrist(line, self.out))
         self.out.flush()
 
@@ -556,5 +589,5 @@ def write_profile(folder, profile: HandProfile) -> Path:
     return path
 
 
-def record(cfg: RecordConfig, profile: HandProfile | None = None) -> dict:
-    return Recorder(cfg, profile=profile).run()
+def record(cfg: RecordConfig, profile: HandProfile | None = None, agent=None) -> dict:
+    return Recorder(cfg, profile=profile, agent=agent).run()

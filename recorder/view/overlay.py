@@ -27,11 +27,14 @@ WEB_KEYS = {
     "reset": ("z",),
     "stop": ("Escape", "q"),
     "hand": ("h",),
+    "takeover": ("t",),
 }
 _SHOWN = {"ArrowRight": "→", "ArrowLeft": "←", "Escape": "Esc"}
 WEB_KEY_NAMES = {action: " ".join(_SHOWN.get(k, k) for k in keys) for action, keys in WEB_KEYS.items()}
 TERMINAL_KEY_NAMES = {a: n for a, n in WEB_KEY_NAMES.items() if a != "hand"}  # views without keys of their own
-ACTIONS = {"next": "next", "rerecord": "record again", "reset": "zero", "stop": "stop", "hand": "human hand"}
+ACTIONS = {"next": "next", "rerecord": "record again", "reset": "zero", "stop": "stop", "hand": "human hand",
+           "takeover": "take over / give back"}  # fmt: skip
+TAKEOVER_ONLY = ("takeover",)  # keys shown only in a takeover recording (a status with "control")
 
 
 def lines(status: dict, key_names: dict[str, str] | None = None) -> list[tuple[str, str]]:
@@ -53,6 +56,10 @@ def lines(status: dict, key_names: dict[str, str] | None = None) -> list[tuple[s
         rows.append(("episode", f"{ep}: {phase}" if phase else ep))
     elif status.get("phase"):
         rows.append(("now", str(status["phase"])))
+    if status.get("control"):
+        key = key_names.get("takeover", "t")
+        rows.append(("control", f"WEARER: the glove drives ({key} gives it back)" if status["control"] == "wearer"
+                     else f"the policy ({key} or moving away from it takes over)"))  # fmt: skip
     if status.get("step"):
         rows.append(("step", str(status["step"])))
     if status.get("next"):
@@ -73,7 +80,7 @@ def lines(status: dict, key_names: dict[str, str] | None = None) -> list[tuple[s
         rows.append(("wrist", wrist_text(wrist)))
         if wrist.get("edge"):
             rows.append(("workspace", f"at its edge ({sides(wrist['edge'])}): the robot's palm stops there"))
-    keys = status.get("keys", list(key_names))
+    keys = status.get("keys", [k for k in key_names if k not in TAKEOVER_ONLY or status.get("control")])
     if keys:
         rows.append(("keys", " | ".join(f"{key_names[k]} {ACTIONS[k]}" for k in keys if k in key_names)))
     return rows

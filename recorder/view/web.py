@@ -1,10 +1,10 @@
 """The web view: for headless machines and remote operators. A page served on 127.0.0.1 (another address only
 when asked: ``--view web:0.0.0.0:8765``) with the live scene rendered offscreen (EGL) as an MJPEG stream, the
-status text, and buttons for next, record again, zero and stop, each also on a key (the terminal's: → n Enter, ←
-r, z, Esc q; h shows or hides the human hand). Each browser is served by its own thread that
-sends the newest frame when it can, so a slow or closed page never holds up the rendering, let alone the
-recording (which runs in another process). The standard library's HTTP server is enough for one page, a
-stream and four buttons on a local network.
+status text, and buttons for next, record again, zero, stop and take over, each also on a key (the terminal's: →
+n Enter, ← r, z, Esc q, t: control between the policy and the wearer in a takeover recording; h shows or hides the
+human hand). Each browser is served by its own thread that sends the newest frame when it can, so a slow or closed
+page never holds up the rendering, let alone the recording (which runs in another process). The standard library's
+HTTP server is enough for one page, a stream and five buttons on a local network.
 """
 
 from __future__ import annotations
@@ -49,7 +49,8 @@ async function status() {
   try {
     const rows = (await (await fetch("/status")).json()).rows;
     document.getElementById("status").innerHTML = rows.map(
-      ([k, v]) => `<tr class="${v.includes("LOST") ? "warn" : k === "workspace" ? "edge" : ""}">` +
+      ([k, v]) => `<tr class="${v.includes("LOST") ? "warn" : k === "workspace" || v.startsWith("WEARER") ?
+        "edge" : ""}">` +
         `<td class="k">${k}</td><td>${v.replace(/&/g, "&amp;").replace(/</g, "&lt;")}</td></tr>`
     ).join("");
   } catch (e) {}

@@ -58,7 +58,7 @@ def episodes_table(repo_id: str, root: Path) -> list[dict]:
     return rows
 
 
-def _action_state_pairs(action_names, state_names, robot: str | None) -> list[tuple[int, int]]:
+def action_state_pairs(action_names, state_names, robot: str | None) -> list[tuple[int, int]]:
     """(action column, state column) of each actuator and the joint it drives."""
     joints = None
     if robot:
@@ -94,7 +94,7 @@ def plot_episode(repo_id: str, root: Path, episode: int, out: Path) -> Path:
     t = np.asarray(data["timestamp"])
     a_names = meta.features["action"]["names"]
     s_names = meta.features["observation.state"]["names"]
-    pairs = _action_state_pairs(a_names, s_names, meta.robot_type)
+    pairs = action_state_pairs(a_names, s_names, meta.robot_type)
     if not pairs:
         raise GloverecError("cannot pair actions with joint states in this dataset")
     cols = 5

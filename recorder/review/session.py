@@ -18,7 +18,7 @@ from recorder import GloverecError
 from recorder.dataset_check import check_dataset
 from recorder.hub.store import Hub
 from recorder.record.edit import Edits, frame_ranges
-from recorder.record.inspect import _action_state_pairs, dataset_root
+from recorder.record.inspect import action_state_pairs, dataset_root
 from recorder.record.sidecar import read_sidecar
 from recorder.review.publish import publish
 
@@ -124,7 +124,7 @@ class Session:
         action, state = rows.get("action"), rows.get("observation.state")
         a_names = self.features.get("action", {}).get("names") or []
         s_names = self.features.get("observation.state", {}).get("names") or []
-        pairs = _action_state_pairs(a_names, s_names, self.info.get("robot_type")) if state is not None else []
+        pairs = action_state_pairs(a_names, s_names, self.info.get("robot_type")) if state is not None else []
         if not pairs and action is not None:
             pairs = [(a, None) for a in range(action.shape[1])]
         series = []

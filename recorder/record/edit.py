@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from recorder import GloverecError
+from recorder.record.episode_stats import lerobot_save_speedups
 from recorder.record.sidecar import SIDECAR, read_sidecar
 from recorder.video_backend import video_backend
 
@@ -140,27 +141,28 @@ def edit_dataset(src: Path, out: Path, repo_id: str, edits: Edits, progress: boo
     bar = tqdm(total=sum(len(r) for r in kept.values()), desc="writing", unit="frame", disable=not progress,
                file=sys.stderr)  # fmt: skip
     try:
-        for new_index, (e, frames) in enumerate(kept.items()):
-            rows = data[starts[e] + frames.start : starts[e] + frames.stop]  # columns of the kept frames
-            if images:  # camera frames go through LeRobot's image writer and video encoder, frame by frame
-                for j, k in enumerate(frames):
-                    item = source[starts[e] + k]  # decodes the camera frames: (C, H, W) float in [0, 1]
-                    frame = {key: _value(rows[key][j], features[key]) for key in features if key not in images}
-                    for key in images:
-                        frame[key] = (item[key].permute(1, 2, 0).numpy() * 255.0).round().astype(np.uint8)
-                    target.add_frame({**frame, "task": tasks[int(item["task_index"])]})
-                    bar.update()
-                target.save_episode()
-            else:  # vectors only: the whole episode at once (LeRobot's save_episode takes a built episode)
-                n = len(frames)
-                episode = {key: [_value(v, features[key]) for v in rows[key]] for key in features}
-                episode.update(size=n, task=[tasks[int(t)] for t in rows["task_index"]], episode_index=new_index)
-                episode.update(frame_index=np.arange(n), timestamp=np.arange(n) / meta.fps, index=[], task_index=[])
-                target.save_episode(episode_data=episode)
-                bar.update(n)
-            record = records.get(e)
-            if record is not None:
-                new_records.append(_record(record, new_index, len(frames), rows, e, edits))
+        with lerobot_save_speedups(meta.features):  # exact episode stats, no embed_images where there are no images
+            for new_index, (e, frames) in enumerate(kept.items()):
+                rows = data[starts[e] + frames.start : starts[e] + frames.stop]  # columns of the kept frames
+                if images:  # camera frames go through LeRobot's image writer and video encoder, frame by frame
+                    for j, k in enumerate(frames):
+                        item = source[starts[e] + k]  # decodes the camera frames: (C, H, W) float in [0, 1]
+                        frame = {key: _value(rows[key][j], features[key]) for key in features if key not in images}
+                        for key in images:
+                            frame[key] = (item[key].permute(1, 2, 0).numpy() * 255.0).round().astype(np.uint8)
+                        target.add_frame({**frame, "task": tasks[int(item["task_index"])]})
+                        bar.update()
+                    target.save_episode()
+                else:  # vectors only: the whole episode at once (LeRobot's save_episode takes a built episode)
+                    n = len(frames)
+                    episode = {key: [_value(v, features[key]) for v in rows[key]] for key in features}
+                    episode.update(size=n, task=[tasks[int(t)] for t in rows["task_index"]], episode_index=new_index)
+                    episode.update(frame_index=np.arange(n), timestamp=np.arange(n) / meta.fps, index=[], task_index=[])
+                    target.save_episode(episode_data=episode)
+                    bar.update(n)
+                record = records.get(e)
+                if record is not None:
+                    new_records.append(_record(record, new_index, len(frames), rows, e, edits))
     finally:
         bar.close()
         target.finalize()

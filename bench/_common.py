@@ -88,3 +88,38 @@ def wilson(successes: int, n: int, z: float = 1.96) -> list[float]:
     centre = (p + z * z / (2 * n)) / (1 + z * z / n)
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
     return [round(centre - half, 3), round(centre + half, 3)]
+
+
+# LeRobot's ACT, small enough to train on this 2-core CPU in minutes (bench/learning.py, bench/human_demos.py)
+ACT_FLAGS = [
+    "--policy.type=act",
+    "--policy.device=cpu",
+    "--policy.push_to_hub=false",
+    "--policy.dim_model=256",
+    "--policy.dim_feedforward=1024",
+    "--policy.n_encoder_layers=2",
+    "--policy.n_vae_encoder_layers=2",
+    "--policy.chunk_size=10",
+    "--policy.n_action_steps=1",
+    "--policy.temporal_ensemble_coeff=0.01",
+    "--policy.optimizer_lr=1e-4",
+    "--batch_size=32",
+    "--num_workers=0",
+    "--env_eval_freq=0",
+    "--log_freq=500",
+]
+
+
+def train_act(repo_id: str, root: Path, out: Path, steps: int) -> tuple[str, float, str | None]:
+    """`lerobot-train` ACT on a dataset folder, as a user runs it: (the command, seconds, its error or None)."""
+    import os
+    import subprocess
+
+    train = str(Path(sys.executable).with_name("lerobot-train"))
+    cmd = [train, f"--dataset.repo_id={repo_id}", f"--dataset.root={root}", *ACT_FLAGS, f"--steps={steps}",
+           f"--save_freq={steps}", f"--output_dir={out}"]  # fmt: skip
+    command = "lerobot-train " + " ".join(cmd[1:])
+    print("  $ " + command, flush=True)
+    t = time.perf_counter()
+    r = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, "OMP_NUM_THREADS": "1"})
+    return command, time.perf_counter() - t, (r.stderr.strip()[-1500:] if r.returncode != 0 else None)

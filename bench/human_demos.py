@@ -7,6 +7,7 @@ For each task, with the gloverec commands a user runs (each in a child process),
   record N demonstrations with the scripted demonstrator, and N with the human-like one (--demonstrator human)
   -> train BC (--steps, 3000) on: the scripted takes; all the human-like takes
      (--all-episodes); the reviewed human-like takes (the failed ones left out: train's default)
+  -> and LeRobot's ACT (`lerobot-train`, bench/_common.py's small ACT, --act-steps) on all the human-like takes
   -> eval each on 50 unseen seeds (100000..), success with its Wilson 95 % interval.
 Writes bench/results/human_demos.json.
 """
@@ -21,7 +22,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import gloverec, wilson, write_results  # noqa: E402
+from _common import gloverec, train_act, wilson, write_results  # noqa: E402
 
 EVAL_SEED = 100_000  # bench/learning.py's: seeds no demonstration was recorded with
 
@@ -56,6 +57,26 @@ def train_eval(task: str, robot: str, data: dict, name: str, all_takes: bool, ar
     }
 
 
+def act_eval(task: str, robot: str, data: dict, args, tmp: Path) -> dict:
+    """ACT through lerobot-train on every take (lerobot-train has no success filter), evaluated as BC is."""
+    out = tmp / "runs" / f"{task}_act"
+    command, wall, error = train_act(data["repo_id"], Path(data["root"]), out, args.act_steps)
+    if error:
+        return {"training_set": "human, all takes (ACT)", "error": error}
+    ev = gloverec("eval", "--policy", str(out), "--task", task, "--robot", robot, "--episodes",
+                  str(args.eval_episodes), "--seed", str(EVAL_SEED))  # fmt: skip
+    return {
+        "training_set": "human, all takes (ACT)",
+        "policy": "act",
+        "steps": args.act_steps,
+        "train_s": round(wall, 1),
+        "command": command.replace(str(tmp), "$TMP"),
+        "success_rate": ev["success_rate"],
+        "successes": ev["successes"],
+        "wilson95": wilson(ev["successes"], ev["episodes"]),
+    }
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--tasks", default="grasp")
@@ -64,6 +85,7 @@ def main() -> None:
     p.add_argument("--eval-episodes", type=int, default=50)
     p.add_argument("--failure-rate", type=float, default=0.15)
     p.add_argument("--steps", type=int, default=3000, help="BC training steps")
+    p.add_argument("--act-steps", type=int, default=1500, help="lerobot-train ACT steps (0: no ACT row)")
     args = p.parse_args()
     rows, t0 = [], time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="gloverec-human-") as tmp_name:
@@ -76,8 +98,10 @@ def main() -> None:
                 train_eval(task, args.robot, human, "human, all takes", True, args, tmp),
                 train_eval(task, args.robot, human, "human, reviewed takes", False, args, tmp),
             ]
+            if args.act_steps:
+                policies.append(act_eval(task, args.robot, human, args, tmp))
             for r in policies:
-                print(f"  {r['training_set']}: BC {r['success_rate']:.0%} {r['wilson95']}", flush=True)
+                print(f"  {r['training_set']}: {r.get('success_rate', r.get('error'))} {r.get('wilson95')}", flush=True)
             rows.append({
                 "task": task, "robot": args.robot, "demonstrations": args.episodes,
                 "demo_success": {"scripted": scripted["success_rate"], "human": human["success_rate"]},

@@ -20,14 +20,13 @@ import argparse
 import json
 import os
 import shutil
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import RESULTS, gloverec, write_results  # noqa: E402
+from _common import RESULTS, gloverec, train_act, write_results  # noqa: E402
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
@@ -37,23 +36,6 @@ TRAIN_GOAL_S = 600
 STEPS = 3000
 TASK_STEPS = {"relocate": 10_000}  # a free wrist's reach, carry and release: val loss still falls at 3000
 EVAL_SEED = 100_000
-ACT_FLAGS = [
-    "--policy.type=act",
-    "--policy.device=cpu",
-    "--policy.push_to_hub=false",
-    "--policy.dim_model=256",
-    "--policy.dim_feedforward=1024",
-    "--policy.n_encoder_layers=2",
-    "--policy.n_vae_encoder_layers=2",
-    "--policy.chunk_size=10",
-    "--policy.n_action_steps=1",
-    "--policy.temporal_ensemble_coeff=0.01",
-    "--policy.optimizer_lr=1e-4",
-    "--batch_size=32",
-    "--num_workers=0",
-    "--env_eval_freq=0",
-    "--log_freq=500",
-]
 
 
 def one(task: str, robot: str, args, tmp: Path, hub: Path) -> dict:
@@ -171,28 +153,16 @@ def one(task: str, robot: str, args, tmp: Path, hub: Path) -> dict:
 def act(task: str, robot: str, steps: int, args, tmp: Path, hub: Path) -> dict:
     repo = f"bench/{task}_{robot}"
     out = tmp / "act"
-    cmd = [
-        str(Path(sys.executable).with_name("lerobot-train")),
-        f"--dataset.repo_id={repo}",
-        f"--dataset.root={hub / repo}",
-        *ACT_FLAGS,
-        f"--steps={steps}",
-        f"--save_freq={steps}",
-        f"--output_dir={out}",
-    ]
-    print("  $ lerobot-train " + " ".join(cmd[1:]), flush=True)
-    t = time.perf_counter()
-    r = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, "OMP_NUM_THREADS": "1"})
-    wall = time.perf_counter() - t
-    if r.returncode != 0:
-        return {"task": task, "robot": robot, "error": r.stderr.strip()[-1500:]}
+    command, wall, error = train_act(repo, hub / repo, out, steps)
+    if error:
+        return {"task": task, "robot": robot, "error": error}
     ev = gloverec("eval", "--policy", str(out), "--episodes", str(args.eval_episodes), "--seed", str(EVAL_SEED))
     return {
         "task": task,
         "robot": robot,
         "steps": steps,
         "train_wall_s": round(wall, 1),
-        "command": "lerobot-train " + " ".join(cmd[1:]).replace(str(tmp), "$TMP"),
+        "command": command.replace(str(tmp), "$TMP"),
         "eval": {
             "episodes": ev["episodes"],
             "success_rate": ev["success_rate"],

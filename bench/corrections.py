@@ -17,6 +17,7 @@ Writes bench/results/corrections.json and the plot bench/results/corrections.png
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 import tempfile
@@ -33,6 +34,10 @@ os.environ.setdefault("HF_HUB_OFFLINE", "1")
 
 
 def record(args, root: Path, seed: int, episodes: int, failure_rate: float, *extra: str) -> dict:
+    if (root / "meta" / "info.json").is_file():  # --work: made by an earlier run
+        eps = _records(root)
+        return {"root": str(root), "episodes": len(eps), "frames": sum(e["frames"] for e in eps),
+                "success_rate": round(sum(e["success"] for e in eps) / len(eps), 3)}  # fmt: skip
     out = gloverec("record", "--view", "none", "--glove", "emulator", "--task", args.task, "--robot", args.robot,
                    "--episodes", str(episodes), "--root", str(root), "--repo-id", f"bench/{root.name}",
                    "--seed", str(seed), "--fast", "--no-log", "--demonstrator", "human",
@@ -43,6 +48,8 @@ def record(args, root: Path, seed: int, episodes: int, failure_rate: float, *ext
 
 def train_eval(args, name: str, first: dict, also: list[dict], tmp: Path) -> dict:
     out = tmp / "runs" / name
+    if (out / "eval.json").is_file():  # --work: trained and evaluated by an earlier run
+        return json.loads((out / "eval.json").read_text()), out
     t = time.perf_counter()
     trained = gloverec("train", "--repo-id", "bench/demos", "--root", first["root"], "--steps", str(args.steps),
                        "--out", str(out), *(["--also", *(a["root"] for a in also)] if also else []))  # fmt: skip
@@ -62,15 +69,18 @@ def train_eval(args, name: str, first: dict, also: list[dict], tmp: Path) -> dic
         "wilson95": wilson(ev["successes"], ev["episodes"]),
     }
     print(f"  {name}: {row['success_rate']:.0%} {row['wilson95']}", flush=True)
+    (out / "eval.json").write_text(json.dumps(row))
     return row, out
+
+
+def _records(root: Path) -> list[dict]:
+    lines = (root / "meta" / "gloverec" / "episodes.jsonl").read_text().splitlines()
+    return [json.loads(x) for x in lines if x.strip()]
 
 
 def takeover_stats(rec: dict) -> dict:
     """Who drove the takeover episodes (their records in meta/gloverec/episodes.jsonl)."""
-    import json
-
-    lines = (Path(rec["root"]) / "meta" / "gloverec" / "episodes.jsonl").read_text().splitlines()
-    eps = [json.loads(x) for x in lines if x.strip()]
+    eps = _records(Path(rec["root"]))
     taken = [e["takeover"] for e in eps]
     return {
         "episodes_taken_over": sum(t["interventions"] > 0 for t in taken),

@@ -192,23 +192,8 @@ def train(
         file=sys.stderr,
     )
     try:
-        _loop(
-            bar,
-            train_cache,
-            val_cache,
-            pre,
-            post,
-            policy_obj,
-            optimizer,
-            scheduler,
-            tcfg,
-            cfg,
-            val_every,
-            history,
-            extras,
-            out,
-            weights,
-        )
+        _loop(bar, train_cache, val_cache, pre, post, policy_obj, optimizer, scheduler, tcfg, cfg, val_every, history,
+              extras, out, weights)  # fmt: skip
     except KeyboardInterrupt:
         bar.close()
         kept = out / CHECKPOINTS_DIR / LAST_CHECKPOINT_LINK
@@ -243,23 +228,8 @@ def train(
     return summary
 
 
-def _loop(
-    bar,
-    train_cache,
-    val_cache,
-    pre,
-    post,
-    policy_obj,
-    optimizer,
-    scheduler,
-    tcfg,
-    cfg,
-    val_every,
-    history,
-    extras,
-    out,
-    weights=None,
-) -> None:
+def _loop(bar, train_cache, val_cache, pre, post, policy_obj, optimizer, scheduler, tcfg, cfg, val_every, history,
+          extras, out, weights=None) -> None:  # fmt: skip
     """The training steps from the bar's position to cfg.steps: validation, history and checkpoints. ``weights``:
     how often to draw each training frame (None: uniformly)."""
 

@@ -1,4 +1,4 @@
-"""Curating a recorded dataset (`gloverec edit`, its command in recorder/cli.py): delete episodes, trim an
+"""Curating a recorded dataset (`gloverec edit`, its command in recorder/review/cli.py): delete episodes, trim an
 episode's start or end, relabel an episode's success. The source is never changed: the result is a new dataset
 folder (the command publishes it as a hub's next version when the source is in a hub).
 

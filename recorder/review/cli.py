@@ -1,7 +1,9 @@
-"""`gloverec review`: its flags, and serving the page until Ctrl-C."""
+"""`gloverec review` (its flags, and serving the page until Ctrl-C) and `gloverec edit`, the same curation without a
+browser: both publish through recorder/review/publish.py."""
 
 from __future__ import annotations
 
+import json
 import os
 
 import annotated_types as at
@@ -9,6 +11,14 @@ import annotated_types as at
 from recorder.argtypes import number
 
 PORT = number(int, at.Ge(0), at.Le(65535))
+
+
+def _dataset_flags(p, verb: str) -> None:
+    p.add_argument("--repo-id", required=True, help="dataset id, USER/NAME")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--root", help="a recording folder (default datasets/recordings/USER/NAME)")
+    where.add_argument("--hub", help=f"a local hub folder: {verb} its version of the dataset")
+    p.add_argument("--version", help=f"with --hub: the version to {verb}, vN (default: the newest)")
 
 
 def add_parser(sub) -> None:
@@ -19,11 +29,7 @@ def add_parser(sub) -> None:
         "trim and relabel them, then publish: the hub's next version (--hub), or a new folder (--root: --out, "
         "default ROOT-reviewed). Nothing changes until Publish. Serves until Ctrl-C.",
     )
-    p.add_argument("--repo-id", required=True, help="dataset id, USER/NAME")
-    where = p.add_mutually_exclusive_group()
-    where.add_argument("--root", help="a recording folder (default datasets/recordings/USER/NAME)")
-    where.add_argument("--hub", help="a local hub folder: review its version of the dataset")
-    p.add_argument("--version", help="with --hub: the version to review, vN (default: the newest)")
+    _dataset_flags(p, "review")
     p.add_argument("--out", help="with --root: where Publish writes the reviewed dataset, a new folder "
                    "(default: ROOT-reviewed)")  # fmt: skip
     p.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1: this machine only)")
@@ -50,4 +56,58 @@ def run(args) -> int:
         review.serve()
     except KeyboardInterrupt:
         pass
+    return 0
+
+
+def add_edit_parser(sub) -> None:
+    """`gloverec edit` (recorder/record/edit.py; here because it publishes as the page does)."""
+    p = sub.add_parser(
+        "edit",
+        help="delete, trim or relabel episodes: a new dataset folder or the hub's next version",
+        description="Curate a dataset: delete episodes, trim an episode's start or end, relabel its success. The "
+        "source is not changed: the result goes to --out, or for a hub dataset to the hub's next version.",
+    )
+    _dataset_flags(p, "edit")
+    p.add_argument("--out", help="the edited dataset, a new folder (default with --hub: the hub's next version)")
+    p.add_argument("--delete", metavar="EPISODES", help="episodes to delete, e.g. 3,7 or 10-14")
+    p.add_argument("--trim", action="append", default=[], metavar="EP:START-END",
+                   help="keep only START-END seconds of episode EP (END may be 'end'); repeatable")  # fmt: skip
+    p.add_argument("--success", action="append", default=[], metavar="EP:yes|no",
+                   help="relabel episode EP successful or failed; repeatable")  # fmt: skip
+    p.add_argument("--merge", nargs="+", default=[], metavar="DATASET",
+                   help="then append these dataset folders (gloverec merge: same fps, robot and features)")  # fmt: skip
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=cmd_edit)
+
+
+def cmd_edit(args) -> int:
+    from pathlib import Path
+
+    from recorder import GloverecError
+    from recorder.hub.store import Hub  # pyarrow: not at start-up
+    from recorder.record.edit import Edits
+    from recorder.record.inspect import dataset_root
+    from recorder.review.publish import publish
+
+    edits = Edits.parse(args.delete, args.trim, args.success)
+    if not edits and not args.merge:
+        raise GloverecError("nothing to do: pass --delete, --trim, --success or --merge")
+    if args.version and not args.hub:
+        raise GloverecError("--version names a hub version: pass --hub too")
+    hub = None
+    if args.hub is not None:
+        hub = Hub(args.hub)
+        src = hub.checked(args.repo_id, args.version).path
+    else:
+        src = dataset_root(args.repo_id, args.root, None)
+        if args.out is None:
+            raise GloverecError("pass --out DIR: a recording is not edited in place (or --hub for a hub dataset)")
+    out = Path(args.out) if args.out else None
+    summary = publish(src, args.repo_id, edits, hub=hub, out=out, merge=args.merge, progress=not args.json)
+    if args.json:
+        print(json.dumps(summary), flush=True)
+    else:
+        where = f"{args.repo_id} {summary['version']}" if "version" in summary else summary["out"]
+        what = "; ".join(filter(None, (summary["edits"], f"merged {' '.join(args.merge)}" if args.merge else "")))
+        print(f"{where}: {summary['episodes']} episodes, {summary['frames']} frames ({what}; from {src})")
     return 0

@@ -10,7 +10,8 @@ With the gloverec commands a user runs (each in a child process):
       BC on the demonstrations and every round's takeover recording (`--also`) -> P(r)
   fresh arm, each round r: --per-round more human-like demonstrations on the same seeds (the same recorded
       frames: the task's episodes have a fixed length) -> train on all of them -> F(r)
-  -> eval every policy on --eval-episodes unseen seeds (100000..), success with its Wilson 95 % interval.
+  -> eval every policy on --eval-episodes unseen seeds (100000..); each policy is trained with --train-seeds seeds
+     (BC on 10-40 episodes varies with its initialisation) and their successes pooled, with the Wilson 95 % interval.
 Writes bench/results/corrections.json and the plot bench/results/corrections.png.
 """
 
@@ -46,13 +47,27 @@ def record(args, root: Path, seed: int, episodes: int, failure_rate: float, *ext
             "success_rate": out["success_rate"]}  # fmt: skip
 
 
-def train_eval(args, name: str, first: dict, also: list[dict], tmp: Path) -> dict:
-    out = tmp / "runs" / name
+def train_eval(args, name: str, first: dict, also: list[dict], tmp: Path) -> tuple[dict, Path]:
+    """Policy ``name`` trained with --train-seeds seeds, each evaluated: the pooled row, and the first seed's policy
+    (the one the next takeover round runs)."""
+    rows = [_train_eval_seed(args, name, seed, first, also, tmp) for seed in range(args.train_seeds)]
+    row = dict(rows[0])
+    if len(rows) > 1:
+        successes, episodes = sum(r["successes"] for r in rows), sum(r["episodes"] for r in rows)
+        row.update(successes=successes, episodes=episodes, success_rate=round(successes / episodes, 4),
+                   wilson95=wilson(successes, episodes), per_seed=[r["success_rate"] for r in rows])  # fmt: skip
+        print(f"  {name}, {len(rows)} seeds pooled: {row['success_rate']:.0%} {row['wilson95']}", flush=True)
+    return row, tmp / "runs" / name
+
+
+def _train_eval_seed(args, name: str, seed: int, first: dict, also: list[dict], tmp: Path) -> dict:
+    out = tmp / "runs" / (name if seed == 0 else f"{name}_seed{seed}")
     if (out / "eval.json").is_file():  # --work: trained and evaluated by an earlier run
-        return json.loads((out / "eval.json").read_text()), out
+        return json.loads((out / "eval.json").read_text())
     t = time.perf_counter()
     trained = gloverec("train", "--repo-id", "bench/demos", "--root", first["root"], "--steps", str(args.steps),
-                       "--out", str(out), *(["--also", *(a["root"] for a in also)] if also else []))  # fmt: skip
+                       "--seed", str(seed), "--out", str(out),
+                       *(["--also", *(a["root"] for a in also)] if also else []))  # fmt: skip
     train_s = time.perf_counter() - t
     ev = gloverec("eval", "--policy", str(out), "--task", args.task, "--robot", args.robot, "--episodes",
                   str(args.eval_episodes), "--seed", str(EVAL_SEED))  # fmt: skip
@@ -68,9 +83,9 @@ def train_eval(args, name: str, first: dict, also: list[dict], tmp: Path) -> dic
         "episodes": ev["episodes"],
         "wilson95": wilson(ev["successes"], ev["episodes"]),
     }
-    print(f"  {name}: {row['success_rate']:.0%} {row['wilson95']}", flush=True)
+    print(f"  {name} (training seed {seed}): {row['success_rate']:.0%} {row['wilson95']}", flush=True)
     (out / "eval.json").write_text(json.dumps(row))
-    return row, out
+    return row
 
 
 def _records(root: Path) -> list[dict]:
@@ -109,7 +124,7 @@ def plot(rows: list[dict], path: Path) -> None:
     ax.set_ylabel("BC success, % (Wilson 95 %)")
     ax.set_ylim(0, 100)
     ax.grid(alpha=0.3)
-    ax.legend(loc="lower right")
+    ax.legend(loc="upper left")
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
@@ -124,6 +139,8 @@ def main() -> None:
     p.add_argument("--per-round", type=int, default=10)
     p.add_argument("--steps", type=int, default=3000, help="BC training steps")
     p.add_argument("--eval-episodes", type=int, default=100)
+    p.add_argument("--train-seeds", type=int, default=3, help="BC trained with seeds 0..N-1, successes pooled (the "
+                   "takeover rounds run seed 0's policy)")  # fmt: skip
     p.add_argument("--failure-rate", type=float, default=0.15, help="the demonstrations' (the corrections': 0)")
     p.add_argument("--threshold", type=float, default=None, help="--takeover-threshold (default: the recorder's)")
     p.add_argument("--work", help="keep the datasets and policies in this folder (default: a temporary one)")

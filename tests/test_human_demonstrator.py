@@ -16,7 +16,7 @@ from recorder.demonstrator.rollout import success_rate
 from recorder.record.sidecar import read_sidecar
 
 
-@pytest.mark.parametrize("task", ["grasp", "pinch", "pose"])
+@pytest.mark.parametrize("task", ["grasp", "pinch", "pose", "keys", "turn"])
 @pytest.mark.parametrize("rate", [0.15, 0.4])
 def test_the_share_of_failed_takes_follows_the_setting(task, rate):
     env = envs.make(task).unwrapped
@@ -28,7 +28,7 @@ def test_the_share_of_failed_takes_follows_the_setting(task, rate):
     assert abs(np.mean(meant) - rate) <= 0.10, np.mean(meant)
 
 
-@pytest.mark.parametrize(("task", "good_of_6"), [("grasp", 5), ("pinch", 4), ("pose", 6)])
+@pytest.mark.parametrize(("task", "good_of_6"), [("grasp", 5), ("pinch", 4), ("pose", 6), ("keys", 6), ("turn", 6)])
 def test_meant_failures_fail_and_the_other_takes_succeed(task, good_of_6):
     failing = success_rate(task, "glovehand", 6, demonstrator="human", failure_rate=1.0)
     assert failing["successes"] == 0, [r["intent"] for r in failing["runs"]]
@@ -36,9 +36,12 @@ def test_meant_failures_fail_and_the_other_takes_succeed(task, good_of_6):
     assert len(kinds) == 2, kinds  # both kinds of mistake happen
     good = success_rate(task, "glovehand", 6, seed0=100, demonstrator="human", failure_rate=0.0)
     assert good["successes"] >= good_of_6, good["runs"]  # 50 seeds: grasp 43, pinch 38, pose 50 (docs/envs.md)
-    assert {r["intent"]["strategy"] for r in good["runs"]} == (
-        {"together", "thumb last"} if task == "pose" else {"together", "thumb first"}
-    )
+    assert {r["intent"]["strategy"] for r in good["runs"]} == STRATEGIES[task]
+
+
+STRATEGIES = {"grasp": {"together", "thumb first"}, "pinch": {"together", "thumb first"},
+              "pose": {"together", "thumb last"}, "keys": {"quick taps", "deliberate presses"},
+              "turn": {"one sweep", "two sweeps"}}  # fmt: skip
 
 
 def test_it_moves_as_people_do_not_as_the_script():
@@ -74,7 +77,7 @@ def test_record_with_the_human_demonstrator_keeps_what_it_meant(tmp_path):
 @pytest.mark.parametrize(
     ("args", "says"),
     [
-        (["--task", "keys", "--demonstrator", "human"], "task 'keys' has no human-like demonstrator yet"),
+        (["--task", "relocate", "--demonstrator", "human"], "task 'relocate' has no human-like demonstrator yet"),
         (["--task", "grasp", "--demonstrator", "human", "--wrist", "udp:9"], "moves the fingers only"),
         (["--glove", "serial:/dev/null", "--demonstrator", "human"], "record with --glove emulator"),
         (["--demonstrator", "human", "--failure-rate", "2"], "failure rate 2: expected a share from 0 to 1"),

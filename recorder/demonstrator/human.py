@@ -34,9 +34,11 @@ import numpy as np
 
 from recorder.config import ConfigError
 from recorder.demonstrator.grasp import GraspDemonstrator
+from recorder.demonstrator.keys import KeysDemoConfig, KeysDemonstrator
 from recorder.demonstrator.motion import DemoMotion
 from recorder.demonstrator.pinch import PinchDemonstrator
 from recorder.demonstrator.pose import PoseDemoConfig, PoseDemonstrator
+from recorder.demonstrator.turn import TurnDemoConfig, TurnDemonstrator
 from recorder.hand.gestures import GESTURES
 from recorder.hand.kinematics import JOINTS
 
@@ -112,6 +114,16 @@ def staged(m: DemoMotion, t0: float, t1: float, thumb_first: bool) -> None:
     a, b = m.poses[k - 1], m.poses[k]
     mid = np.where(THUMB == thumb_first, b, a)
     m.insert(t0 + 0.5 * (t1 - t0), mid)
+
+
+def pause_at(m: DemoMotion, t: float, pause: float) -> None:
+    """The motion stops where it is at ``t`` (hand and palm) for ``pause`` s, then goes on; later keyframes later."""
+    m.insert(t, m.keyframe_angles([t])[0])
+    k = int(np.searchsorted(m.times, t)) + 1
+    m.times = np.concatenate((m.times[:k], [t + pause], m.times[k:] + pause))
+    for name in ("poses", "palm_positions", "palm_turns"):
+        values = getattr(m, name)
+        setattr(m, name, np.concatenate((values[:k], values[k - 1 : k], values[k:])))
 
 
 class HumanGripDemonstrator:
@@ -210,4 +222,78 @@ class HumanPoseDemonstrator(PoseDemonstrator):
         return m
 
 
-HUMAN = {"grasp": HumanGraspDemonstrator, "pinch": HumanPinchDemonstrator, "pose": HumanPoseDemonstrator}
+class HumanKeysDemonstrator:
+    """HandKeys as a person plays the sequence: each press a reaction time after its key lights (drawn per take),
+    presses and releases at a person's varying speed, tremor, overshoot and hesitation; quick taps or deliberate
+    presses; the mistakes: a press "too light" to register (the wearer goes on to the next key, unlit) or the "wrong
+    finger" (its neighbour presses its own key)."""
+
+    task = "keys"
+    kinds = ("too light", "wrong finger")
+
+    def __init__(self, human: HumanConfig = HumanConfig(), config: KeysDemoConfig = KeysDemoConfig()):
+        self.human, self.config = human, config
+
+    def plan(self, env, seed: int | None = None) -> DemoMotion:
+        env, h, c = env.unwrapped, self.human, self.config
+        rng = np.random.default_rng(seed)
+        sub = np.random.default_rng(rng.integers(2**32))
+        fails = failure(rng, h, self.kinds)
+        strategy = str(rng.choice(("quick taps", "deliberate presses")))
+        hold = c.hold_s if strategy == "quick taps" else tuple(2.5 * x for x in c.hold_s)
+        r = reaction(rng, h)
+        config = replace(c, reaction_s=(r, r + 0.05), press_s=(duration(rng, h, c.press_s),) * 2, hold_s=hold,
+                         release_s=(duration(rng, h, c.release_s),) * 2)  # fmt: skip
+        mistake = (fails, int(rng.integers(len(env.sequence)))) if fails else None
+        m = KeysDemonstrator(config).plan(env, seed=int(sub.integers(2**31)), mistake=mistake)
+        m = DemoMotion(m.times, m.poses, rng, c.rate_hz, tremor_deg=h.tremor_deg, palm_deg=c.palm_deg)
+        edits = humanize(m, rng, h)
+        m.intent = {"demonstrator": "human", "strategy": strategy, "failure": fails, "edits": edits}
+        if mistake:
+            m.intent["press"] = mistake[1]
+        return m
+
+
+class HumanTurnDemonstrator:
+    """HandTurn as a person turns a knob: reaction and closing at a person's speed, a turning speed of their own,
+    tremor, overshoot and hesitation in the grip; one sweep of the palm or two with a pause between (a person
+    re-sets the wrist on a large turn); watching the pointer and correcting as the scripted wearer does. The
+    mistakes: a grip "too loose" (no squeeze: the knob slips under the fingers) or "stops short" (60 % of the turn,
+    let go without looking again)."""
+
+    task = "turn"
+    kinds = ("too loose", "stops short")
+
+    def __init__(self, human: HumanConfig = HumanConfig(), config: TurnDemoConfig = TurnDemoConfig()):
+        self.human, self.config = human, config
+
+    def plan(self, env, seed: int | None = None) -> DemoMotion:
+        env, h, c = env.unwrapped, self.human, self.config
+        rng = np.random.default_rng(seed)
+        sub = np.random.default_rng(rng.integers(2**32))
+        fails = failure(rng, h, self.kinds)
+        strategy = str(rng.choice(("one sweep", "two sweeps")))
+        r = reaction(rng, h)
+        speed = float(np.mean(c.turn_deg_per_s) * rng.lognormal(0.0, h.speed_cv))
+        config = replace(c, reaction_s=(r, r + 0.05), close_s=(duration(rng, h, c.close_s),) * 2,
+                         turn_deg_per_s=(speed, speed))  # fmt: skip
+        if fails == "too loose":
+            config = replace(config, squeeze_mm=(-10, -6), robot_squeeze_mm={})  # closes short of the rim
+        m = TurnDemonstrator(config).plan(env, seed=int(sub.integers(2**31)), tremor_deg=h.tremor_deg,
+                                          share=h.short if fails == "stops short" else 1.0)  # fmt: skip
+        t_turn = float(m.times[5])
+        edits = humanize(m, rng, h, until=t_turn)
+        if strategy == "two sweeps":  # the palm stops halfway through the turn for a moment, then turns on
+            t_mid = float(np.mean(m.times[m.times >= t_turn][:2]))
+            pause = rng.uniform(*h.hesitate_s)
+            pause_at(m, t_mid, pause)
+            m.turned_s += pause
+            m.let_go_s += pause
+            m.busy_until += pause
+            edits.append(f"two sweeps, paused {pause:.2f} s")
+        m.intent = {"demonstrator": "human", "strategy": strategy, "failure": fails, "edits": edits}
+        return m
+
+
+HUMAN = {"grasp": HumanGraspDemonstrator, "pinch": HumanPinchDemonstrator, "pose": HumanPoseDemonstrator,
+         "keys": HumanKeysDemonstrator, "turn": HumanTurnDemonstrator}  # fmt: skip

@@ -38,7 +38,10 @@ class KeysDemonstrator:
     def __init__(self, config: KeysDemoConfig = KeysDemoConfig()):
         self.config = config
 
-    def plan(self, env, seed: int | None = None) -> DemoMotion:
+    def plan(self, env, seed: int | None = None, mistake: tuple[str, int] | None = None) -> DemoMotion:
+        """``mistake``: (kind, k) a wearer's mistake at the k-th press: "too light" (the key stops short of its
+        threshold; the wearer goes on to the next, unlit), "wrong finger" (the neighbouring finger presses its own key
+        instead)."""
         env = env.unwrapped
         c = self.config
         rng = np.random.default_rng(seed)
@@ -50,9 +53,15 @@ class KeysDemonstrator:
         poses.append(rest)
         lit_at = cfg.first_key_s
         free_at = times[-1]
-        for finger in env.sequence:
+        for k, finger in enumerate(env.sequence):
+            wrong = mistake is not None and mistake[1] == k
+            if wrong and mistake[0] == "wrong finger":
+                fingers = list(env.layout)
+                finger = fingers[(fingers.index(finger) + 1) % len(fingers)]
             key = env.layout[finger]
             depth = key.contact_drop + rng.uniform(*c.depth) * cfg.travel_m
+            if wrong and mistake[0] == "too light":
+                depth = key.contact_drop + 0.3 * cfg.threshold * cfg.travel_m
             down = press_angles(robot, finger, round(depth, 4)) + noise
             go = max(lit_at + rng.uniform(*c.reaction_s), free_at + 0.02)
             t_down = go + rng.uniform(*c.press_s)

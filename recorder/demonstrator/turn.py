@@ -51,7 +51,8 @@ class TurnDemonstrator:
     def __init__(self, config: TurnDemoConfig = TurnDemoConfig()):
         self.config = config
 
-    def plan(self, env, seed: int | None = None) -> DemoMotion:
+    def plan(self, env, seed: int | None = None, share: float = 1.0, tremor_deg: float = 0.05) -> DemoMotion:
+        """``share``: how much of the target the wearer turns (a wearer's mistake: less than 1, unwatched)."""
         env = env.unwrapped
         c = self.config
         rng = np.random.default_rng(seed)
@@ -66,7 +67,7 @@ class TurnDemonstrator:
         start = GESTURES["open"]
         opened = pinch_pose(GRIP_FINGER, np.array(open_p) + noise, start)
         closed = pinch_pose(GRIP_FINGER, np.array(closed_p) + noise, start)
-        turn = env.target * rng.uniform(*c.lead) + np.radians(rng.uniform(-c.aim_deg, c.aim_deg))
+        turn = env.target * rng.uniform(*c.lead) * share + np.radians(rng.uniform(-c.aim_deg, c.aim_deg))
         t_pre = rng.uniform(0.05, 0.2)
         t_open = t_pre + rng.uniform(*c.preshape_s)
         t_close = env.schedule["grip"] + rng.uniform(*c.reaction_s)
@@ -84,7 +85,11 @@ class TurnDemonstrator:
         z = np.array([0.0, 0.0, 1.0])
         turns = [0 * z] * 6 + [turn * z] * 4
         limit = env.config.max_base_angle_deg - 5.0
-        return TurnMotion(times, poses, rng, c, t_turned, t_let, palm_turns=turns, max_turn_deg=limit)
+        motion = TurnMotion(times, poses, rng, c, t_turned, t_let, palm_turns=turns, max_turn_deg=limit,
+                            tremor_deg=tremor_deg)  # fmt: skip
+        if share < 1.0:
+            motion.busy_until = np.inf  # turned short and let go as planned: it does not look again
+        return motion
 
 
 class TurnMotion(DemoMotion):
@@ -95,8 +100,9 @@ class TurnMotion(DemoMotion):
     watches = True
 
     def __init__(self, times, poses, rng, config: TurnDemoConfig, turned_s: float, let_go_s: float, palm_turns,
-                 max_turn_deg: float):  # fmt: skip
-        super().__init__(times, poses, rng, config.rate_hz, palm_deg=config.palm_deg, palm_turns=palm_turns)
+                 max_turn_deg: float, tremor_deg: float = 0.05):  # fmt: skip
+        super().__init__(times, poses, rng, config.rate_hz, palm_deg=config.palm_deg, palm_turns=palm_turns,
+                         tremor_deg=tremor_deg)  # fmt: skip
         self.config, self.rng = config, rng
         self.turned_s, self.let_go_s = turned_s, let_go_s
         self.busy_until = turned_s + rng.uniform(*config.reaction_s)  # the first look

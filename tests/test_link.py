@@ -295,3 +295,28 @@ def test_the_glove_rate_is_counted_over_a_second_of_its_clock():
     assert steady.hz() == pytest.approx(200.0)
     steady.add(10.0)  # after a gap of 5 s: only what the last second holds
     assert steady.hz() == 1.0
+
+
+def test_a_fast_write_waiting_for_the_reader_does_not_block_scheduling_a_button():
+    """Faster than real time the emulator waits for room in the port while holding it (no frame dropped); a
+    recording loop that schedules the demonstrator's button meanwhile must not wait for that reader, which may be
+    waiting for the loop itself (seen: a 100-episode camera recording hung after 21 episodes)."""
+    import threading
+
+    from recorder.emulator.emulator import Emulator
+
+    emu = Emulator(200.0, "pose")
+    emu.plug()
+    emu.realtime = False
+    writer = threading.Thread(target=emu._write, args=(b"\0" * (1 << 20),), daemon=True)  # nobody reads the port
+    writer.start()
+    time.sleep(0.2)
+    assert writer.is_alive()  # it waits for room, holding the port
+    done = threading.Event()
+    threading.Thread(target=lambda: (emu.schedule_button(1.0), done.set()), daemon=True).start()
+    try:
+        assert done.wait(2.0), "scheduling a button waited for the port's reader"
+    finally:
+        emu._stop.set()
+        writer.join(2.0)
+        emu.unplug()

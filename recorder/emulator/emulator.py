@@ -92,6 +92,9 @@ class Emulator:
         self.lead_s = None  # faster than real time: synthesise no block that starts after this session
         self._lead = threading.Condition()  # time (None: no limit); a reader raises it with allow()
         self._buttons: list[float] = []
+        # The buttons have a lock of their own: the port's is held while a fast write waits for the reader, and the
+        # reader may be waiting for the recording loop to take its frames, the loop that schedules the buttons.
+        self._buttons_lock = threading.Lock()
         self._requests: list[str] = []
         self._t_us = time.monotonic_ns() // 1000
 
@@ -248,15 +251,16 @@ class Emulator:
 
     def schedule_button(self, at_s: float) -> None:
         """Press the reset button when the motion reaches session time ``at_s`` (the demonstrator's cue)."""
-        with self._lock:
+        with self._buttons_lock:
             self._buttons.append(at_s)
             self._buttons.sort()
 
     def _due_buttons(self, t: float) -> bytes:
         out = b""
-        while self._buttons and t >= self._buttons[0] - 1e-9:
-            self._buttons.pop(0)
-            out += self._event(EventCode.BUTTON)
+        with self._buttons_lock:
+            while self._buttons and t >= self._buttons[0] - 1e-9:
+                self._buttons.pop(0)
+                out += self._event(EventCode.BUTTON)
         return out
 
     def _now_us(self) -> int:

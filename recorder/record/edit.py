@@ -25,7 +25,6 @@ from pathlib import Path
 import numpy as np
 
 from recorder import GloverecError
-from recorder.record.episode_stats import lerobot_save_speedups
 from recorder.record.sidecar import SIDECAR, read_sidecar
 from recorder.video_backend import video_backend
 
@@ -117,6 +116,8 @@ def edit_dataset(src: Path, out: Path, repo_id: str, edits: Edits, progress: boo
     import datasets
     from lerobot.datasets.lerobot_dataset import LeRobotDataset  # lerobot: not at start-up
     from tqdm import tqdm
+
+    from recorder.record.episode_stats import lerobot_save_speedups  # lerobot's writer, patched while saving
 
     datasets.disable_progress_bars()  # a "Map" bar per episode
 

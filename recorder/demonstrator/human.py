@@ -76,6 +76,16 @@ def failure(rng: np.random.Generator, c: HumanConfig, kinds: tuple) -> str | Non
     return str(rng.choice(kinds)) if rng.random() < c.failure_rate else None
 
 
+def take(seed, h: HumanConfig, kinds: tuple, strategies: tuple):
+    """A take's first draws, in this order: (its generator, a generator for the scripted plan's own draws, the
+    meant failure or None, the strategy, the reaction time)."""
+    rng = np.random.default_rng(seed)
+    sub = np.random.default_rng(rng.integers(2**32))
+    fails = failure(rng, h, kinds)
+    strategy = str(rng.choice(strategies))
+    return rng, sub, fails, strategy, reaction(rng, h)
+
+
 def humanize(m: DemoMotion, rng: np.random.Generator, c: HumanConfig, until: float = np.inf) -> list[str]:
     """Overshoot-and-correct and hesitate in the large moves of ``m`` that end before ``until`` and are followed by
     a hold long enough to take the extra time; the edits made."""
@@ -147,11 +157,7 @@ class HumanGripDemonstrator:
             raise ConfigError(
                 f"the human-like {env.task_name} demonstrator moves the fingers only: record without --wrist"
             )
-        rng = np.random.default_rng(seed)
-        sub = np.random.default_rng(rng.integers(2**32))  # the scripted plan's own draws
-        fails = failure(rng, h, self.kinds)
-        strategy = str(rng.choice(("together", "thumb first")))
-        r = reaction(rng, h)
+        rng, sub, fails, strategy, r = take(seed, h, self.kinds, ("together", "thumb first"))
         config = replace(c, preshape_s=(duration(rng, h, c.preshape_s),) * 2, reaction_s=(r, r),
                          close_s=(duration(rng, h, c.close_s),) * 2)  # fmt: skip
         m = self._scripted_plan(env, config, int(sub.integers(2**31)), fails)
@@ -236,12 +242,8 @@ class HumanKeysDemonstrator:
 
     def plan(self, env, seed: int | None = None) -> DemoMotion:
         env, h, c = env.unwrapped, self.human, self.config
-        rng = np.random.default_rng(seed)
-        sub = np.random.default_rng(rng.integers(2**32))
-        fails = failure(rng, h, self.kinds)
-        strategy = str(rng.choice(("quick taps", "deliberate presses")))
+        rng, sub, fails, strategy, r = take(seed, h, self.kinds, ("quick taps", "deliberate presses"))
         hold = c.hold_s if strategy == "quick taps" else tuple(2.5 * x for x in c.hold_s)
-        r = reaction(rng, h)
         config = replace(c, reaction_s=(r, r + 0.05), press_s=(duration(rng, h, c.press_s),) * 2, hold_s=hold,
                          release_s=(duration(rng, h, c.release_s),) * 2)  # fmt: skip
         mistake = (fails, int(rng.integers(len(env.sequence)))) if fails else None
@@ -269,11 +271,7 @@ class HumanTurnDemonstrator:
 
     def plan(self, env, seed: int | None = None) -> DemoMotion:
         env, h, c = env.unwrapped, self.human, self.config
-        rng = np.random.default_rng(seed)
-        sub = np.random.default_rng(rng.integers(2**32))
-        fails = failure(rng, h, self.kinds)
-        strategy = str(rng.choice(("one sweep", "two sweeps")))
-        r = reaction(rng, h)
+        rng, sub, fails, strategy, r = take(seed, h, self.kinds, ("one sweep", "two sweeps"))
         speed = float(np.mean(c.turn_deg_per_s) * rng.lognormal(0.0, h.speed_cv))
         config = replace(c, reaction_s=(r, r + 0.05), close_s=(duration(rng, h, c.close_s),) * 2,
                          turn_deg_per_s=(speed, speed))  # fmt: skip

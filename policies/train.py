@@ -95,6 +95,7 @@ def train(
 
     t0 = time.perf_counter()
     meta = load_meta(ref)
+    metas = {a: load_meta(a) for a in also}
     history: list[dict] = []
     if resume:
         last = last.resolve()
@@ -104,6 +105,7 @@ def train(
             raise GloverecError(f"{out} was trained on {split['dataset']['repo_id']}, not {ref.repo_id}")
         train_eps, val_eps = split["train"], split["validation"]
         also = tuple(resolve(a["repo_id"], root=a["root"]) for a in split.get("also", []))
+        metas = {a: load_meta(a) for a in also}
         splits = [(a, t, v) for a, t, v in zip(also, split.get("also_train", []), split.get("also_validation", []))]
         policy_cfg = PreTrainedConfig.from_pretrained(pretrained)
         policy_cfg.pretrained_path = pretrained
@@ -112,7 +114,7 @@ def train(
     else:
         policy_cfg = _policy_config(policy, cfg)
         train_eps, val_eps = split_episodes(meta, ref.root, cfg.val_fraction, cfg.seed, cfg.successful_only)
-        splits = [(a, *split_episodes(load_meta(a), a.root, cfg.val_fraction, cfg.seed, cfg.successful_only))
+        splits = [(a, *split_episodes(metas[a], a.root, cfg.val_fraction, cfg.seed, cfg.successful_only))
                   for a in also]  # fmt: skip
         set_seed(cfg.seed)
     with contextlib.redirect_stdout(io.StringIO()):  # lerobot prints "Loading weights from local directory"
@@ -120,12 +122,12 @@ def train(
     keys = [*policy_obj.config.input_features, "action"]
     delta = resolve_delta_timestamps(policy_obj.config, meta)
     for a, _, _ in splits:
-        _check_alike(meta, ref, load_meta(a), a, keys)
+        _check_alike(meta, ref, metas[a], a, keys)
     train_caches, val_caches = [], []
     for r, t, v in [(ref, train_eps, val_eps), *splits]:
         _say(f"loading {r.repo_id} ({r.root}): {len(t)} training and {len(v)} validation episodes")
-        train_caches.append(FrameCache(r, t, [*keys, "intervention"], delta, progress))
-        val_caches.append(FrameCache(r, v, [*keys, "intervention"], delta, progress))
+        train_caches.append(FrameCache(r, t, keys, delta, progress))
+        val_caches.append(FrameCache(r, v, keys, delta, progress))
     train_cache, val_cache = FrameCache.join(train_caches), FrameCache.join(val_caches)
     weights = train_cache.weights(cfg.intervention_weight, cfg.policy_frames)
     if resume:

@@ -28,7 +28,7 @@ def test_the_wearer_takes_over_after_the_hold_and_not_before():
     t = Takeover(TakeoverConfig(threshold=0.2, hold_s=0.1), LOW, HIGH, FPS)  # 3 frames
     flags = _run(t, [0.1, 0.3, 0.3, 0.1, 0.3, 0.3, 0.3, 0.0, 0.0])
     assert flags == [False, False, False, False, False, False, True, True, True]  # a dip below restarts the count
-    assert t.summary() == {"switches": [{"frame": 6, "to": WEARER}], "interventions": 1}
+    assert t.summary() == {"frames_by_wearer": 3, "switches": [{"frame": 6, "to": WEARER}], "interventions": 1}
 
 
 def test_the_key_gives_control_back_and_the_takeover_waits_for_the_wearer_to_come_back():
@@ -154,3 +154,14 @@ def test_the_key_gives_control_back_to_the_policy_mid_episode(docs_run, tmp_path
     for (k, who), (k_next, _) in zip(switches, [*switches[1:], (len(flags), None)]):
         expected[k:k_next] = who == WEARER
     assert (flags == expected).all()
+
+
+def test_a_takeover_recording_first_trains_with_plain_demonstrations_after_it(docs_run, tmp_path):
+    """Either order: the takeover recording as the dataset and the demonstrations as --also (its extra features are
+    not the policy's inputs, so they are not loaded)."""
+    work = docs_run("recording.md", _documented_block())
+    r = cli("train", "--repo-id", "me/grasp_takeover", "--root", str(work / "grasp_takeover"), "--also",
+            str(work / "grasp"), "--out", str(tmp_path / "out"), "--steps", "2", "--json")  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    summary = json.loads(r.stdout.strip().splitlines()[-1])
+    assert summary["frames_by_wearer"] > 0 and summary["also"][0]["root"] == str(work / "grasp")

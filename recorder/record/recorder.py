@@ -59,7 +59,6 @@ class EpisodeStats:
     jitter_s: list = field(default_factory=list)
     latency_s: list = field(default_factory=list)
     retarget_mm: list = field(default_factory=list)
-    by_wearer: int = 0  # a takeover recording's frames the wearer drove
     wrist_lost: int = 0  # frames whose wrist the tracker did not see (held, or catching up)
     wrist_delays_s: list = field(default_factory=list)  # per live tracker pose: (its tracking, stamp to applied)
 
@@ -316,7 +315,7 @@ class Recorder:
         if self.agent is not None:
             self.agent.reset(self.env, seed)
             self.takeover.reset()
-            self.live.control = "policy"
+            self.live.control = self.takeover.who
         self.demo = None
         if self.demonstrator is not None:
             self.demo = self.demonstrator.plan(self.u, seed=seed)
@@ -505,7 +504,6 @@ class Recorder:
         self.live.recording(index, k, n_max, stats, wrist)
         self.store.add_frame(self.schema.frame(row))
         stats.frames += 1
-        stats.by_wearer += bool(decision is not None and decision.intervention)
         if latency is not None:
             stats.latency_s.append(latency)
         stats.retarget_mm.append(rinfo["tip_error_mean"] * 1e3)
@@ -531,8 +529,7 @@ class Recorder:
             **stats.summary(self.glove.counters()),
         }
         if self.takeover is not None:
-            result["takeover"] = {"policy": self.cfg.policy, "frames_by_wearer": stats.by_wearer,
-                                  **self.takeover.summary()}  # fmt: skip
+            result["takeover"] = {"policy": self.cfg.policy, **self.takeover.summary()}
         if self.demo is not None and self.demo.intent is not None:
             result["demonstration"] = self.demo.intent  # what the human-like wearer meant: strategy, failure
         if self.logger is not None:

@@ -55,6 +55,7 @@ class Takeover:
         self._armed = True
         self.switches: list[tuple[int, str]] = []  # (frame, who took control)
         self._k = 0
+        self.by_wearer = 0  # frames the wearer drove
 
     def toggle(self) -> None:
         """The takeover key or the glove's button: control to the other one, from the next frame decided."""
@@ -77,11 +78,12 @@ class Takeover:
             self._switch(WEARER)
         self._k += 1
         wearer = self.who == WEARER
+        self.by_wearer += wearer
         return Decision(np.asarray(wearer_action if wearer else policy_action, float), wearer, d, policy_action)
 
     def summary(self) -> dict:
-        """The episode's control, for its record: when each one took it (frame indices)."""
-        return {"switches": [{"frame": k, "to": who} for k, who in self.switches],
+        """The episode's control, for its record: the frames the wearer drove, when each one took it (frame indices)."""
+        return {"frames_by_wearer": self.by_wearer, "switches": [{"frame": k, "to": who} for k, who in self.switches],
                 "interventions": sum(who == WEARER for _, who in self.switches)}  # fmt: skip
 
     def _switch(self, who: str) -> None:

@@ -66,7 +66,7 @@ def _train_eval_seed(args, name: str, seed: int, first: dict, also: list[dict], 
         return json.loads((out / "eval.json").read_text())
     t = time.perf_counter()
     trained = gloverec("train", "--repo-id", "bench/demos", "--root", first["root"], "--steps", str(args.steps),
-                       "--seed", str(seed), "--out", str(out),
+                       "--seed", str(seed), "--out", str(out), "--inputs", "state,environment",
                        *(["--also", *(a["root"] for a in also)] if also else []))  # fmt: skip
     train_s = time.perf_counter() - t
     ev = gloverec("eval", "--policy", str(out), "--task", args.task, "--robot", args.robot, "--episodes",

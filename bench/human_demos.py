@@ -43,7 +43,8 @@ def train_eval(task: str, robot: str, data: dict, name: str, all_takes: bool, ar
     out = tmp / "runs" / f"{task}_{name}".replace(", ", "_").replace(" ", "_")
     t = time.perf_counter()
     trained = gloverec("train", "--repo-id", data["repo_id"], "--root", data["root"], "--steps", str(args.steps),
-                       "--out", str(out), *(["--all-episodes"] if all_takes else []))  # fmt: skip
+                       "--out", str(out), "--inputs", "state,environment",
+                       *(["--all-episodes"] if all_takes else []))  # fmt: skip
     train_s = time.perf_counter() - t
     ev = gloverec("eval", "--policy", str(out), "--task", task, "--robot", robot, "--episodes",
                   str(args.eval_episodes), "--seed", str(EVAL_SEED))  # fmt: skip

@@ -6,7 +6,8 @@
 For each task and robot, with the gloverec commands a user runs (each in a child process):
   record --episodes N (emulated glove, scripted demonstrator, seeds 0..N-1) -> push to a local hub
   -> replay every episode open loop (max |replayed - recorded state|; goal: 0, MuJoCo is deterministic)
-  -> train BC (gloverec train's defaults, --steps or the task's STEPS; goal <= 10 min on this CPU)
+  -> train BC on the joint and environment state (--inputs state,environment; --steps or the task's STEPS;
+     goal <= 10 min on this CPU); bench/learning_visual.py trains on what a robot has (cameras, joints, instruction)
   -> eval 50 episodes with seeds 100000.. (never training seeds) (goals: HandPose >= 95 %, HandGrasp >= 80 %)
 and, on the first task/robot, LeRobot's ACT through `lerobot-train` on the same hub dataset (a short run of
 a small ACT), evaluated by `gloverec eval`. Writes bench/results/learning.json (rows of other task/robot pairs
@@ -36,6 +37,7 @@ TRAIN_GOAL_S = 600
 STEPS = 3000
 TASK_STEPS = {"relocate": 10_000}  # a free wrist's reach, carry and release: val loss still falls at 3000
 EVAL_SEED = 100_000
+INPUTS = "state,environment"  # the simulator's state: what these rows measure (bench/learning_visual.py: a robot's)
 
 
 def one(task: str, robot: str, args, tmp: Path, hub: Path) -> dict:
@@ -75,7 +77,8 @@ def one(task: str, robot: str, args, tmp: Path, hub: Path) -> dict:
     out = tmp / "runs" / f"{task}_{robot}"
     t = time.perf_counter()
     steps = args.steps or TASK_STEPS.get(task, STEPS)
-    trained = gloverec("train", "--repo-id", repo, "--hub", str(hub), "--steps", str(steps), "--out", str(out))
+    trained = gloverec("train", "--repo-id", repo, "--hub", str(hub), "--steps", str(steps), "--out", str(out),
+                       "--inputs", INPUTS)  # fmt: skip
     train_s = time.perf_counter() - t
     shutil.copyfile(out / "loss_curve.png", RESULTS / f"learning_loss_{task}_{robot}.png")
     ev = gloverec(

@@ -56,7 +56,8 @@ def add_parsers(subparsers) -> None:
         "--policy",
         required=True,
         help="a LeRobot checkpoint (pretrained_model, checkpoint or training output folder), "
-        "or 'demonstrator' / 'random' for the scripted demonstrator / random actions",
+        "or a baseline: 'demonstrator' (the scripted demonstrator), 'random' (random actions), 'fist' (the open hand, "
+        "a fist from the task's scripted close phase on)",
     )
     e.add_argument("--task", help="a registered task: pose, grasp, ... (default: the policy's training task)")
     e.add_argument("--robot", help="a robot hand: glovehand, shadow, leap (default: the policy's training robot)")
@@ -69,6 +70,12 @@ def add_parsers(subparsers) -> None:
     e.add_argument("--video", metavar="DIR", help="write videos of the first episodes here (mp4)")
     e.add_argument("--videos", type=natural, default=2, help="how many episodes to film (default 2)")
     e.add_argument("--threads", type=positive_int, default=1, help="torch CPU threads (default 1)")
+    e.add_argument("--workers", type=positive_int, default=1,
+                   help="episodes in this many processes at once, one torch thread each (default 1); the same "
+                   "per-seed results as one")  # fmt: skip
+    e.add_argument("--perturb", type=_perturbations, default=(), metavar="WHAT,WHAT",
+                   help="evaluate again under scene changes the demonstrations never showed: light, colour (the "
+                   "task's objects), camera (moved 5 degrees), or all; reported beside the plain figure")  # fmt: skip
     e.add_argument("--json", action="store_true", help="print one JSON object (success_rate, episodes, ...)")
     e.set_defaults(func=cmd_eval)
 
@@ -154,6 +161,17 @@ def _also(text: str, hub: str | None):
     return resolve(repo_id, hub, None, version or None)
 
 
+def _perturbations(text: str) -> tuple[str, ...]:
+    from envs.tasks.perturb import PERTURBATIONS  # no MuJoCo model: numpy and mujoco's module only
+
+    names = PERTURBATIONS if text == "all" else tuple(dict.fromkeys(s.strip() for s in text.split(",") if s.strip()))
+    bad = [n for n in names if n not in PERTURBATIONS]
+    if bad or not names:
+        raise argparse.ArgumentTypeError(f"unknown perturbation {bad[0] if bad else text!r}; valid: "
+                                         f"{', '.join(PERTURBATIONS)}, all")  # fmt: skip
+    return names
+
+
 def cmd_eval(args: argparse.Namespace) -> int:
     from envs import check_names  # MuJoCo (0.2 s): not at start-up
 
@@ -162,37 +180,14 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
     seed = ev.EVAL_SEED if args.seed is None else args.seed
     with _quiet_stdout(args.json), _setup(args.threads):
-        if args.policy in ("demonstrator", "random"):
+        if args.policy in ev.BASELINES:
             if not args.task or not args.robot:
                 raise GloverecError(f"--policy {args.policy} needs --task and --robot")
-            env = ev.make_env(
-                args.task,
-                args.robot,
-                render_mode="rgb_array" if args.video else None,
-                **({"image_size": ev.VIDEO_SIZE} if args.video else {}),
-            )
-            try:
-                agent = (
-                    ev.DemonstratorAgent(args.task, args.robot) if args.policy == "demonstrator" else ev.RandomAgent()
-                )
-                result = {
-                    "policy": args.policy,
-                    "policy_type": args.policy,
-                    **ev.evaluate(agent, env, args.episodes, seed, args.video, args.videos),
-                }
-            finally:
-                env.close()
+            result = ev.evaluate_baseline(args.policy, args.task, args.robot, args.episodes, seed, args.video,
+                                          args.videos, sys.stderr.isatty(), args.workers, args.perturb)  # fmt: skip
         else:
-            result = ev.evaluate_checkpoint(
-                args.policy,
-                args.task,
-                args.robot,
-                args.episodes,
-                seed,
-                args.video,
-                args.videos,
-                progress=sys.stderr.isatty(),
-            )
+            result = ev.evaluate_checkpoint(args.policy, args.task, args.robot, args.episodes, seed, args.video,
+                                            args.videos, sys.stderr.isatty(), args.workers, args.perturb)  # fmt: skip
     if args.json:
         print(json.dumps(result))
     else:
@@ -201,6 +196,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
             f"{result['episodes']} = {100 * result['success_rate']:.0f} %, mean return {result['mean_return']:.3f}, "
             f"mean length {result['mean_length']:.1f} steps (seeds {result['seeds'][0]}..{result['seeds'][-1]})"
         )
+        for name, r in result.get("perturbed", {}).items():
+            print(f"  under {name}: success {r['successes']}/{r['episodes']} = {100 * r['success_rate']:.0f} %")
         for path in result["videos"]:
             print(f"video: {path}")
     return 0

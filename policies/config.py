@@ -41,6 +41,12 @@ class TrainConfig:
     )
     val_every: Annotated[int, Positive] | None = setting(None, "validation every N steps (default: steps / 20)")
     save_every: Annotated[int, Positive] | None = setting(1000, "a checkpoint every N steps, and at the end")
+    inputs: str | None = setting(
+        None,
+        "what the policy reads, comma-separated: state, environment (the simulator's object, goal, ...), images "
+        "(or images.CAMERA), task (the instruction) (default: state,images,task, what a deployed robot has, of "
+        "those the dataset carries)",
+    )
     policy: dict = setting(default_factory=dict, help="fields of the policy's LeRobot config", cli=False)
 
     @classmethod

@@ -17,8 +17,10 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import multiprocessing
 import sys
 import time
+from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from pathlib import Path
 
@@ -56,14 +58,24 @@ class PolicyAgent:
         cfg = policy.config
         self.type = cfg.type
         self.inputs = consumed_features(cfg)
+        self.reads_task = bool(getattr(cfg, "reads_task", False))
+        self.instruction: str | None = None
         self.name = f"{cfg.type} ({path})"
 
     def reset(self, env, seed: int) -> None:
         self.policy.reset()
+        if self.reads_task:  # the episode's instruction, as the recorder stores it in the dataset's task
+            self.instruction = env.unwrapped.instruction()
+            known = self.policy.config.instructions
+            if self.instruction not in known:
+                raise GloverecError(
+                    f"episode seed {seed}: the policy does not know the instruction {self.instruction!r} (it knows "
+                    f"{len(known)}, e.g. {known[0]!r}): it was trained for another task or task config"
+                )
 
     def act(self, obs: dict) -> np.ndarray:
 
-        batch = {}
+        batch = {} if self.instruction is None else {"task": self.instruction}
         for key in self.inputs:
             x = torch.from_numpy(np.ascontiguousarray(obs[key]))
             batch[key] = x.permute(2, 0, 1).float() / 255 if key.startswith("observation.images.") else x.float()
@@ -106,12 +118,45 @@ class RandomAgent:
 
     name = "random actions"
 
+    def __init__(self, task: str | None = None, robot: str | None = None):
+        pass
+
     def reset(self, env, seed: int) -> None:
         self.space = env.action_space
         self.space.seed(seed)
 
     def act(self, obs: dict) -> np.ndarray:
         return self.space.sample()
+
+
+class FistAgent:
+    """A baseline that sees nothing: the open hand of the grasp demonstrator until the task's scripted close phase
+    (``schedule["close"]``), then a fist, whatever the object. Where the script's approach alone nearly succeeds
+    (HandGrasp), this is the figure a policy that looks must beat."""
+
+    def __init__(self, task: str | None = None, robot: str | None = None):
+        from recorder.demonstrator.grasp import PREGRASP  # the recorder's postures, loaded when used
+        from recorder.hand.gestures import GESTURES
+
+        self.postures = (PREGRASP, GESTURES["fist"])
+        self.name = "fist at the close phase"
+        self.retarget, self.env = None, None
+
+    def reset(self, env, seed: int) -> None:
+        self.env = env.unwrapped
+        if "close" not in (getattr(self.env, "schedule", None) or {}):
+            raise GloverecError(f"--policy fist needs a task with a scripted close phase (grasp); {self.env.task_name} "
+                                "has none")  # fmt: skip
+        if self.retarget is None:
+            self.retarget = Retargeter.for_env(self.env)
+        self.retarget.reset()
+
+    def act(self, obs: dict) -> np.ndarray:
+        closed = self.env.t >= self.env.schedule["close"]
+        return self.retarget(self.postures[int(closed)])[0]
+
+
+BASELINES = {"demonstrator": DemonstratorAgent, "random": RandomAgent, "fist": FistAgent}
 
 
 # ---------------------------------------------------------------- loading checkpoints
@@ -310,6 +355,7 @@ def load_for_recording(path: str | Path, env, task: str, robot: str, fps: float)
     if trained_fps and float(trained_fps) != float(fps):
         raise GloverecError(f"the policy in {agent.path} acts at {trained_fps:g} Hz: record with --fps {trained_fps:g}")
     check_features(agent, env, task, robot)
+    check_instructions(agent, env)
     return agent
 
 
@@ -324,6 +370,58 @@ def make_env(task: str, robot: str, **options):
         raise GloverecError(str(exc)) from None
 
 
+@dataclass(frozen=True)
+class EvalJob:
+    """What a process needs to build an evaluation's agent and environment (picklable, for ``workers``):
+    ``policy`` a checkpoint folder or a baseline's name (BASELINES), ``options`` make_env's."""
+
+    policy: str
+    task: str
+    robot: str
+    options: dict = field(default_factory=dict)
+    video_dir: str | None = None
+    videos: int = 2
+
+
+def build_agent(job: EvalJob):
+    if job.policy in BASELINES:
+        return BASELINES[job.policy](job.task, job.robot)
+    return load_policy(job.policy)
+
+
+def run_episode(agent, env, k: int, seed: int, video_dir=None, videos: int = 0) -> tuple[dict, str | None]:
+    """Episode ``k`` of an evaluation, with seed ``seed`` (the environment's and torch's: a policy that samples
+    draws the same numbers in any process); filmed into ``video_dir`` when ``k < videos``."""
+    torch.manual_seed(seed)
+    obs, info = env.reset(seed=seed)
+    agent.reset(env, seed)
+    filming = video_dir is not None and k < videos
+    frames = [env.render()] if filming else None
+    ret, steps = 0.0, 0
+    while True:
+        obs, reward, terminated, truncated, info = env.step(agent.act(obs))
+        ret += reward
+        steps += 1
+        if filming:
+            frames.append(env.render())
+        if terminated or truncated:
+            break
+    ok = bool(info["is_success"])
+    run = {
+        "seed": seed,
+        "success": ok,
+        "return": round(ret, 4),
+        "length": steps,
+        **{key: info[key] for key in ("goal", "object") if key in info},
+        **_outcome(info),
+    }
+    path = None
+    if filming:
+        name = f"episode{k:03d}_seed{seed}_{'success' if ok else 'failure'}.mp4"
+        path = str(_write_video(Path(video_dir) / name, frames, float(env.unwrapped.config.control_hz)))
+    return run, path
+
+
 def evaluate(
     agent,
     env,
@@ -333,48 +431,72 @@ def evaluate(
     videos: int = 2,
     progress: bool = False,
 ) -> dict:
-    """Run ``episodes`` episodes (seeds seed, seed+1, ...); videos of the first ``videos`` into ``video_dir``."""
-
-    u = env.unwrapped
-    fps = float(u.config.control_hz)
-    runs, paths = [], []
+    """Run ``episodes`` episodes (seeds seed, seed+1, ...) in this process; videos of the first ``videos`` into
+    ``video_dir``."""
     t0 = time.perf_counter()
     if video_dir is not None:
         Path(video_dir).mkdir(parents=True, exist_ok=True)
-    for k in tqdm(range(episodes), desc="evaluating", unit="episode", disable=not progress, file=sys.stderr):
-        s = seed + k
-        obs, info = env.reset(seed=s)
-        agent.reset(env, s)
-        filming = video_dir is not None and k < videos
-        frames = [env.render()] if filming else None
-        ret, steps = 0.0, 0
-        while True:
-            obs, reward, terminated, truncated, info = env.step(agent.act(obs))
-            ret += reward
-            steps += 1
-            if filming:
-                frames.append(env.render())
-            if terminated or truncated:
-                break
-        ok = bool(info["is_success"])
-        runs.append(
-            {
-                "seed": s,
-                "success": ok,
-                "return": round(ret, 4),
-                "length": steps,
-                **{key: info[key] for key in ("goal", "object") if key in info},
-                **_outcome(info),
-            }
-        )
-        if filming:
-            name = f"episode{k:03d}_seed{s}_{'success' if ok else 'failure'}.mp4"
-            paths.append(str(_write_video(Path(video_dir) / name, frames, fps)))
+    done = [
+        run_episode(agent, env, k, seed + k, video_dir, videos)
+        for k in tqdm(range(episodes), desc="evaluating", unit="episode", disable=not progress, file=sys.stderr)
+    ]
+    u = env.unwrapped
+    return summarize(agent.name, u.task_name, u.robot.config.name, done, seed, t0)
+
+
+def evaluate_job(job: EvalJob, episodes: int, seed: int = EVAL_SEED, workers: int = 1, progress: bool = False,
+                 agent=None) -> dict:  # fmt: skip
+    """Evaluate ``job`` in this process (``workers`` 1; ``agent``: the job's, loaded already) or in ``workers``
+    processes, each building its own agent and environment and running whole episodes: the same per-seed results.
+    The pool is spawned, not forked: a forked EGL context or torch thread pool does not survive."""
+    if workers <= 1 or episodes <= 1:
+        agent = agent or build_agent(job)
+        env = make_env(job.task, job.robot, **job.options)
+        try:
+            return evaluate(agent, env, episodes, seed, job.video_dir, job.videos, progress)
+        finally:
+            env.close()
+    t0 = time.perf_counter()
+    if job.video_dir is not None:
+        Path(job.video_dir).mkdir(parents=True, exist_ok=True)
+    done, name = {}, None
+    ctx = multiprocessing.get_context("spawn")
+    with ctx.Pool(min(workers, episodes), initializer=_worker_start, initargs=(job,)) as pool:
+        bar = tqdm(total=episodes, desc="evaluating", unit="episode", disable=not progress, file=sys.stderr)
+        for k, who, result in pool.imap_unordered(_worker_episode, [(k, seed + k) for k in range(episodes)]):
+            done[k], name = result, who
+            bar.update()
+        bar.close()
+    return summarize(name, job.task, job.robot, [done[k] for k in range(episodes)], seed, t0)
+
+
+_WORKER: dict = {}
+
+
+def _worker_start(job: EvalJob) -> None:
+    """A pool process: one torch thread, lerobot's chatter off, nothing on stdout (it may carry --json's object)."""
+    import logging
+
+    sys.stdout = sys.stderr
+    logging.getLogger().setLevel(logging.WARNING)
+    torch.set_num_threads(1)
+    _WORKER.update(job=job, agent=build_agent(job), env=make_env(job.task, job.robot, **job.options))
+
+
+def _worker_episode(item: tuple[int, int]) -> tuple[int, str, tuple[dict, str | None]]:
+    k, s = item
+    job, agent, env = _WORKER["job"], _WORKER["agent"], _WORKER["env"]
+    return k, agent.name, run_episode(agent, env, k, s, job.video_dir, job.videos)
+
+
+def summarize(name: str, task: str, robot: str, done: list[tuple[dict, str | None]], seed: int, t0: float) -> dict:
+    """An evaluation's result from its episodes (run, video path), in seed order."""
+    runs = [r for r, _ in done]
     n = len(runs)
     return {
-        "agent": agent.name,
-        "task": u.task_name,
-        "robot": u.robot.config.name,
+        "agent": name,
+        "task": task,
+        "robot": robot,
         "episodes": n,
         "seeds": [seed, seed + n - 1] if n else [],
         "success_rate": round(sum(r["success"] for r in runs) / n, 4) if n else 0.0,
@@ -382,7 +504,7 @@ def evaluate(
         "mean_return": round(float(np.mean([r["return"] for r in runs])), 4) if n else 0.0,
         "mean_length": round(float(np.mean([r["length"] for r in runs])), 2) if n else 0.0,
         "episode_lengths": [r["length"] for r in runs],
-        "videos": paths,
+        "videos": [p for _, p in done if p],
         "runs": runs,
         "wall_s": round(time.perf_counter() - t0, 2),
     }
@@ -410,24 +532,77 @@ def evaluate_checkpoint(
     video_dir=None,
     videos: int = 2,
     progress: bool = False,
+    workers: int = 1,
+    perturbations: tuple[str, ...] = (),
 ) -> dict:
-    """Load a checkpoint, build the environment it needs, check the features, evaluate."""
+    """Load a checkpoint, build the environment it needs, check the features, evaluate (in ``workers``
+    processes), then again under each of ``perturbations`` (envs/tasks/perturb.py)."""
     agent = load_policy(path)
     guess_task, guess_robot = trained_setup(agent.context)
     task, robot = task or guess_task, robot or guess_robot
     if not task or not robot:
         missing = " and ".join(f"--{n}" for n, v in (("task", task), ("robot", robot)) if not v)
         raise GloverecError(f"the checkpoint does not say which task and robot it was trained on: pass {missing}")
-    env = make_env(
-        task, robot, render_mode="rgb_array" if video_dir else None, **env_options(agent, bool(video_dir), task, robot)
-    )
+    options = {"render_mode": "rgb_array" if video_dir else None, **env_options(agent, bool(video_dir), task, robot)}
+    env = make_env(task, robot, **options)
     try:
         check_features(agent, env, task, robot)
-        _warn_seed_overlap(agent.context, seed, episodes)
-        out = evaluate(agent, env, episodes, seed, video_dir, videos, progress)
+        check_instructions(agent, env)
     finally:
         env.close()
-    return {"policy": str(agent.path), "policy_type": agent.type, **out}
+    _warn_seed_overlap(agent.context, seed, episodes)
+    job = EvalJob(str(agent.path), task, robot, options, None if video_dir is None else str(video_dir), videos)
+    out = evaluate_job(job, episodes, seed, workers, progress, agent=agent)
+    return {"policy": str(agent.path), "policy_type": agent.type, **out,
+            **perturbed(job, episodes, seed, workers, progress, perturbations, agent)}  # fmt: skip
+
+
+def evaluate_baseline(name: str, task: str, robot: str, episodes: int, seed: int = EVAL_SEED, video_dir=None,
+                      videos: int = 2, progress: bool = False, workers: int = 1,
+                      perturbations: tuple[str, ...] = ()) -> dict:  # fmt: skip
+    """A baseline agent (BASELINES: the scripted demonstrator, random actions, a fist) in ``task`` on ``robot``."""
+    options = {"render_mode": "rgb_array" if video_dir else None, **({"image_size": VIDEO_SIZE} if video_dir else {})}
+    job = EvalJob(name, task, robot, options, None if video_dir is None else str(video_dir), videos)
+    return {"policy": name, "policy_type": name, **evaluate_job(job, episodes, seed, workers, progress),
+            **perturbed(job, episodes, seed, workers, progress, perturbations)}  # fmt: skip
+
+
+def perturbed(job: EvalJob, episodes: int, seed: int, workers: int, progress: bool, names: tuple[str, ...],
+              agent=None) -> dict:  # fmt: skip
+    """``{"perturbed": {name: result}}``: the same episodes under each perturbation (no videos), or {} for none."""
+    if not names:
+        return {}
+    out = {}
+    for name in names:
+        options = {**job.options, "perturb": (name,)}
+        result = evaluate_job(replace(job, options=options, video_dir=None), episodes, seed, workers, progress, agent)
+        out[name] = {k: result[k] for k in ("success_rate", "successes", "episodes", "runs", "wall_s")}
+    return {"perturbed": out}
+
+
+def check_instructions(agent: PolicyAgent, env) -> None:
+    """A policy that reads the instruction in an environment that can draw one it does not know: one line. One it
+    knows but its training set never had (a few demonstrations of a task with many): its episodes test an untrained
+    embedding; a warning says so once."""
+    cfg = agent.policy.config
+    if not agent.reads_task:
+        return
+    drawn = env.unwrapped.instructions()
+    unknown = [t for t in drawn if t not in cfg.instructions]
+    if unknown:
+        trained = trained_setup(agent.context)[0]
+        raise GloverecError(
+            f"the policy in {agent.path} does not know the instruction {unknown[0]!r}, which "
+            f"{env.unwrapped.task_name} can draw: it was trained for {trained or 'another task'}"
+            + (" with another task config" if trained == env.unwrapped.task_name else "")
+        )
+    untrained = [t for t in drawn if t not in (cfg.trained_instructions or cfg.instructions)]
+    if untrained:
+        print(
+            f"warning: {len(untrained)} of the task's {len(drawn)} instructions never came up in the policy's "
+            f"training set (e.g. {untrained[0]!r}): episodes that draw them test a guess",
+            file=sys.stderr,
+        )
 
 
 def _warn_seed_overlap(context: dict, seed: int, episodes: int) -> None:

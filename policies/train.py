@@ -45,6 +45,7 @@ from lerobot.utils.random_utils import set_seed
 from tqdm import tqdm
 
 import policies.bc  # noqa: F401  (registers gloverec_bc)
+from policies import inputs as named_inputs
 from policies.config import TrainConfig
 from policies.data import DatasetRef, FrameCache, load_meta, resolve, sidecar, split_episodes
 from recorder import GloverecError
@@ -57,11 +58,20 @@ def _say(text: str) -> None:
     print(text, file=sys.stderr, flush=True)
 
 
-def _policy_config(policy: str, cfg: TrainConfig):
-
+def _policy_config(policy: str, cfg: TrainConfig, features: dict):
+    """The policy's LeRobot config from the train config; named inputs (``--inputs``) the dataset (info.json
+    ``features``) lacks are one line."""
     extra = dict(cfg.policy)
     if cfg.lr is not None:
         extra["optimizer_lr"] = cfg.lr
+    if cfg.inputs is not None:
+        try:
+            extra["inputs"] = list(named_inputs.parse(cfg.inputs))
+        except ValueError as exc:
+            raise GloverecError(f"--inputs: {exc}") from None
+        lacking = named_inputs.missing(tuple(extra["inputs"]), features)
+        if lacking:
+            raise GloverecError(f"--inputs {cfg.inputs}: the dataset has no {lacking[0]}")
     config_cls = PreTrainedConfig.get_choice_class(POLICY_TYPES[policy])
     known = {f.name for f in dataclasses.fields(config_cls)}
     unknown = sorted(set(extra) - known)
@@ -112,7 +122,10 @@ def train(
         history = json.loads((last / "loss_history.json").read_text())
         set_seed(cfg.seed)
     else:
-        policy_cfg = _policy_config(policy, cfg)
+        policy_cfg = _policy_config(policy, cfg, meta.features)
+        if hasattr(policy_cfg, "set_instructions"):
+            trained = {str(t) for m in (meta, *metas.values()) for t in m.tasks.index}
+            policy_cfg.set_instructions(trained, named_inputs.task_instructions(ref.root))
         train_eps, val_eps = split_episodes(meta, ref.root, cfg.val_fraction, cfg.seed, cfg.successful_only)
         splits = [(a, *split_episodes(metas[a], a.root, cfg.val_fraction, cfg.seed, cfg.successful_only))
                   for a in also]  # fmt: skip
@@ -120,9 +133,12 @@ def train(
     with contextlib.redirect_stdout(io.StringIO()):  # lerobot prints "Loading weights from local directory"
         policy_obj = make_policy(policy_cfg, ds_meta=meta)
     keys = [*policy_obj.config.input_features, "action"]
+    if getattr(policy_obj.config, "reads_task", False):
+        keys.append("task")
     delta = resolve_delta_timestamps(policy_obj.config, meta)
     for a, _, _ in splits:
         _check_alike(meta, ref, metas[a], a, keys)
+    _say(f"inputs: {describe_inputs(policy_obj.config)}")
     train_caches, val_caches = [], []
     for r, t, v in [(ref, train_eps, val_eps), *splits]:
         _say(f"loading {r.repo_id} ({r.root}): {len(t)} training and {len(v)} validation episodes")
@@ -219,6 +235,7 @@ def train(
         "val_episodes": len(val_cache.episodes),
         "frames_by_wearer": int((train_cache.driver == 1).sum()),
         "frames_by_policy": int((train_cache.driver == 2).sum()),
+        "inputs": describe_inputs(policy_obj.config),
         "train_frames": n,
         "val_frames": len(val_cache),
         "final_train_loss": final.get("train_loss"),
@@ -271,16 +288,35 @@ def _loop(bar, train_cache, val_cache, pre, post, policy_obj, optimizer, schedul
 def _check_alike(meta, ref: DatasetRef, other, other_ref: DatasetRef, keys: list[str]) -> None:
     """One line when ``other`` cannot train with ``ref``: another rate, or a policy input or the action missing or
     shaped or named otherwise."""
+    mine, theirs = sidecar(ref.root), sidecar(other_ref.root)
+    task, other_task = (next(iter(x.values()), {}).get("env_task") for x in (mine, theirs))
+    if task and other_task and task != other_task:
+        raise GloverecError(f"the task differs between {ref.repo_id} and {other_ref.repo_id} ({task}, {other_task}): "
+                            "train them apart")  # fmt: skip
     if other.fps != meta.fps:
         raise GloverecError(f"{other_ref.repo_id} is recorded at {other.fps} fps, {ref.repo_id} at {meta.fps}: "
                             "train them apart")  # fmt: skip
     for key in keys:
+        if key == "task":  # every dataset has one; unseen instructions are in the policy's vocabulary
+            continue
         mine, theirs = meta.features.get(key), other.features.get(key)
         if theirs is None:
             raise GloverecError(f"{other_ref.repo_id} has no {key}, which the policy reads in {ref.repo_id}")
         if tuple(mine["shape"]) != tuple(theirs["shape"]) or mine.get("names") != theirs.get("names"):
             raise GloverecError(f"{key} differs between {ref.repo_id} and {other_ref.repo_id} (shape or names): "
                                 "another robot or task?")  # fmt: skip
+
+
+def describe_inputs(cfg) -> str:
+    """What a policy reads, for people: "observation.state (40 of 53 elements), observation.images.front, task
+    (4 instructions)"."""
+    parts = []
+    for key, ft in cfg.input_features.items():
+        idx = getattr(cfg, "state_indices", None)
+        parts.append(f"{key} ({len(idx)} of {ft.shape[0]} elements)" if key == "observation.state" and idx else key)
+    if getattr(cfg, "reads_task", False):
+        parts.append(f"task ({len(cfg.trained_instructions)} of the task's {len(cfg.instructions)} instructions)")
+    return ", ".join(parts)
 
 
 def _validation_loss(policy, pre, cache: FrameCache, batch_size: int) -> float | None:

@@ -159,6 +159,26 @@ def test_camera_images(robot):
     env.close()
 
 
+def test_a_perturbed_scene_looks_different_and_moves_the_same():
+    """eval --perturb: light, the objects' colour and the cameras change what the cameras see, never the physics."""
+
+    def run(perturb):
+        env = envs.make("grasp", "glovehand", cameras=("front",), image_size=(48, 48), perturb=perturb)
+        obs, _ = env.reset(seed=3)
+        images, states = [obs["observation.images.front"]], []
+        for k in range(5):
+            obs, *_ = env.step(np.full(env.action_space.shape, 0.1 * k, np.float32))
+            states.append(obs["observation.state"])
+        env.close()
+        return np.stack(images).astype(float), np.stack(states)
+
+    plain_images, plain_states = run(())
+    for what in ("light", "colour", "camera"):
+        images, states = run((what,))
+        assert np.array_equal(states, plain_states), what
+        assert np.abs(images - plain_images).max() > 40, what  # the object alone, for colour: a few pixels
+
+
 @pytest.mark.parametrize("robot", ROBOTS)
 @pytest.mark.parametrize("task", ["pose", "grasp"])
 def test_zero_action_does_not_succeed(task, robot):

@@ -84,8 +84,9 @@ def test_lerobot_factory_knows_the_policy_and_drops_the_glove_input(dataset):
 
     assert get_policy_class("gloverec_bc") is BCPolicy
     policy, pre, post, ds = _bc_policy(dataset)
-    # observation.glove (the human hand) is a dataset input LeRobot offers; a deployed robot has no glove
-    assert set(policy.config.input_features) == {"observation.state", "observation.environment_state"}
+    # observation.glove (the human hand) is a dataset input LeRobot offers; a deployed robot has no glove, and no
+    # environment state either: by default the policy reads the joint state and the instruction
+    assert set(policy.config.input_features) == {"observation.state"} and policy.config.reads_task
     batch = pre(torch.utils.data.default_collate([ds[i] for i in range(8)]))
     assert batch["action"].shape == (8, policy.config.chunk_size, 23)
     loss, info = policy.forward(batch)
@@ -258,7 +259,11 @@ def test_eval_takes_task_robot_and_rate_from_the_checkpoint(trained):
             ["--robot", "shadow"],
             "feature observation.state differs: the policy expects shape (47,), pose on shadow gives (55,)",
         ),
-        (["--task", "grasp"], "feature observation.environment_state differs: the policy expects shape (20,)"),
+        (
+            ["--task", "grasp"],
+            "does not know the instruction 'grasp the box and keep holding it', which grasp can "
+            "draw: it was trained for pose",
+        ),
     ],
 )
 def test_mismatched_features_are_refused_in_one_line(trained, args, needle):
@@ -339,6 +344,12 @@ def test_bad_input_on_real_data_is_one_line(dataset, trained, tmp_path):
         cli("train", "--repo-id", REPO, "--root", str(dataset), "--out", str(tmp_path / "new"), "--resume"),
         "nothing to resume",
     )
+    # a named input the dataset lacks, or an unknown name: one line before anything is written
+    one_line_error(cli("train", "--repo-id", REPO, "--root", str(dataset), "--out", str(tmp_path / "n"),
+                       "--inputs", "state,images"), "--inputs state,images: the dataset has no cameras")  # fmt: skip
+    one_line_error(cli("train", "--repo-id", REPO, "--root", str(dataset), "--out", str(tmp_path / "n"),
+                       "--inputs", "state,wrist"), "--inputs: unknown input 'wrist'")  # fmt: skip
+    assert not (tmp_path / "n").exists()
 
 
 def test_a_dataset_without_a_successful_episode_names_all_episodes(dataset, tmp_path):
@@ -386,14 +397,38 @@ def test_a_camera_dataset_trains_an_image_policy_that_eval_gives_its_camera(tmp_
     ok_json(
         "train", "--repo-id", "test/cam", "--root", str(root), "--steps", "5", "--batch-size", "8", "--out", str(out)
     )
-    features = json.loads((out / "checkpoints" / "last" / "pretrained_model" / "config.json").read_text())
-    assert features["input_features"]["observation.images.front"]["shape"] == [3, 128, 128]
+    config = json.loads((out / "checkpoints" / "last" / "pretrained_model" / "config.json").read_text())
+    assert config["input_features"]["observation.images.front"]["shape"] == [3, 128, 128]
+    # the default inputs are a robot's: joint state, camera, instruction; no environment state, no glove
+    assert set(config["input_features"]) == {"observation.state", "observation.images.front"}
+    assert config["inputs"] == ["state", "images", "task"]
     from policies.data import resolve
-    from policies.evaluate import evaluate_checkpoint
     from policies.replay import replay
 
-    result = evaluate_checkpoint(out, None, None, episodes=1, video_dir=tmp_path / "v", videos=1)
+    # eval gives each episode the instruction the recorder would have written (all the task's are known, two
+    # trained: the others' episodes are a guess, and eval says so); one the policy does not know is one line
+    drawn = envs.make("pose", "glovehand").unwrapped.instructions()
+    n = len(drawn)
+    assert len(config["instructions"]) == n and len(config["trained_instructions"]) == 2  # seeds 0 and 1 differ
+    r = cli("eval", "--policy", str(out), "--episodes", "1", "--video", str(tmp_path / "v"), "--videos", "1", "--json")
+    assert r.returncode == 0 and f"{n - 2} of the task's {n} instructions never came up in the policy's" in r.stderr
+    result = json.loads(r.stdout)
     assert result["episodes"] == 1 and Path(result["videos"][0]).stat().st_size > 1000
+    config_file = out / "checkpoints" / "last" / "pretrained_model" / "config.json"
+    unknown = next(t for t in drawn if t not in config["trained_instructions"])
+    config["instructions"] = [f"{t}, slowly" if t == unknown else t for t in config["instructions"]]
+    config_file.write_text(json.dumps(config))  # as if trained where the task's text for that gesture was another
+    one_line_error(cli("eval", "--policy", str(out), "--episodes", "1"), f"does not know the instruction {unknown!r}, "
+                   "which pose can draw: it was trained for pose with another task config")  # fmt: skip
+    # images only: the checkpoint reads the camera and nothing else
+    only = tmp_path / "images_only"
+    ok_json("train", "--repo-id", "test/cam", "--root", str(root), "--steps", "2", "--batch-size", "8",
+            "--inputs", "images", "--out", str(only))  # fmt: skip
+    config = json.loads((only / "checkpoints" / "last" / "pretrained_model" / "config.json").read_text())
+    assert list(config["input_features"]) == ["observation.images.front"]
+    # workers: the same per-seed results as one process
+    runs = [ok_json("eval", "--policy", str(only), "--episodes", "3", "--workers", w)["runs"] for w in ("1", "2")]
+    assert runs[0] == runs[1] and len(runs[0]) == 3
     replayed = replay(resolve("test/cam", root=root), 1)  # states only: no video is decoded
     assert replayed["reproduced"] and replayed["max_abs"] == 0.0
 

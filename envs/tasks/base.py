@@ -33,6 +33,7 @@ import mujoco
 import numpy as np
 
 from envs.robots import load_robot
+from envs.tasks.perturb import perturb
 from recorder import config, quat
 from recorder.config import STRICT, Positive
 
@@ -61,6 +62,8 @@ class TaskConfig:
     state_includes_task: bool = False
     weld_timeconst: Annotated[float, Positive] = 0.01  # s; how stiffly the hand base follows its target
     terminate_on_success: bool = True  # end the episode once the task is done (a live view, a benchmark: False)
+    # scene changes the demonstrations never showed (envs/tasks/perturb.py), for evaluation
+    perturb: tuple[Literal["light", "colour", "camera"], ...] = ()
 
     @classmethod
     def load(cls, name: str, **overrides):
@@ -140,6 +143,8 @@ class HandEnv(gym.Env):
         self._build_task(spec)
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)
+        if cfg.perturb:
+            perturb(self.model, cfg.perturb, self.model.body(self.robot.config.root_body).id, self.workspace)
         self._init_indices()
 
         nu = self.model.nu

@@ -1,8 +1,11 @@
 """BCConfig: the behaviour-cloning policy's settings, registered with LeRobot as policy type ``gloverec_bc``.
 
-Inputs: ``observation.state``, ``observation.environment_state`` and, when the dataset has cameras,
-``observation.images.*``. Other dataset features LeRobot offers as inputs (``observation.glove``: the human
-hand, which a deployed robot does not have) are dropped by ``validate_features``. Output: ``action`` chunks of
+Inputs by name (``inputs``, policies/inputs.py): ``state`` (the robot's own elements of ``observation.state``),
+``environment`` (``observation.environment_state`` and the task's elements inside ``observation.state``),
+``images`` (``observation.images.*``) and ``task`` (the instruction, through a learned embedding of each of the
+training set's ``instructions``). The default is what a deployed robot has: state, images and task, of those the
+dataset carries. Other dataset features LeRobot offers as inputs (``observation.glove``: the human hand, which a
+deployed robot does not have) are dropped by ``validate_features``. Output: ``action`` chunks of
 ``chunk_size`` steps; at inference the chunks predicted at every step are blended by temporal ensembling
 (lerobot's ACTTemporalEnsembler), or, with ``temporal_ensemble_coeff: null``, ``n_action_steps`` of each chunk
 are executed before predicting again.
@@ -17,6 +20,8 @@ from lerobot.configs.types import FeatureType, NormalizationMode
 from lerobot.optim.optimizers import AdamWConfig
 from lerobot.optim.schedulers import CosineDecayWithWarmupSchedulerConfig
 from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
+
+from policies import inputs as named_inputs
 
 POLICY_TYPE = "gloverec_bc"
 
@@ -38,13 +43,25 @@ class BCConfig(PreTrainedConfig):
         }
     )
 
-    # the network: an MLP over the normalised state vectors and the image embeddings
+    # what the policy reads, by name (policies/inputs.py): state, environment, images (or images.CAMERA), task
+    inputs: list[str] = field(default_factory=lambda: list(named_inputs.ROBOT))
+
+    # the network: an MLP over the normalised state vectors, the image embeddings and the instruction's embedding
     hidden_dim: int = 512
     n_layers: int = 3
     dropout: float = 0.0
     use_images: bool = True
-    image_channels: tuple[int, ...] = (32, 64, 64)  # the per-camera CNN (stride-2 convolutions, then global pooling)
+    # the per-camera CNN: stride-2 convolutions (the last with stride 1), then spatial-softmax keypoints
+    # (robomimic, Diffusion Policy: where things are, which a global pool loses); GroupNorm, no BatchNorm
+    image_channels: tuple[int, ...] = (32, 32, 32)
+    image_keypoints: int = 32
     image_embedding_dim: int = 64
+    image_shift: int = 4  # training augmentation: random shifts by up to this many pixels (DrQ), 0 off
+    task_embedding_dim: int = 32
+    # the instructions the embedding knows: the training set's, and every other one its task can draw (an
+    # embedding row never trained); one outside them is an error
+    instructions: list[str] | None = None
+    trained_instructions: list[str] | None = None  # those the training set had
     # a free-wrist dataset (action base.x/y/z, state palm.x/y/z): positions and the base target relative to the
     # palm (policies/bc/palm_frame.py); no effect on other datasets
     palm_frame: bool = True
@@ -54,6 +71,7 @@ class BCConfig(PreTrainedConfig):
     state_feature_names: list[str] | None = None
     environment_state_feature_names: list[str] | None = None
     action_feature_names: list[str] | None = None
+    state_indices: list[int] | None = None  # the elements of observation.state the inputs keep (None: all)
 
     # training preset (lerobot-train uses it too)
     optimizer_lr: float = 1e-3
@@ -75,6 +93,7 @@ class BCConfig(PreTrainedConfig):
             raise ValueError(f"only n_obs_steps=1 is supported, got {self.n_obs_steps}")
         if self.hidden_dim < 1 or self.n_layers < 1:
             raise ValueError("hidden_dim and n_layers must be positive")
+        self.inputs = list(named_inputs.parse(self.inputs))
 
     def get_optimizer_preset(self) -> AdamWConfig:
         return AdamWConfig(
@@ -95,18 +114,38 @@ class BCConfig(PreTrainedConfig):
         self.state_feature_names = names(OBS_STATE)
         self.environment_state_feature_names = names(OBS_ENV_STATE)
         self.action_feature_names = names(ACTION)
+        self.state_indices = named_inputs.state_indices(self.state_feature_names, tuple(self.inputs))
+
+    def set_instructions(self, trained, others=()) -> None:
+        """The training set's instructions (a LeRobot dataset's tasks) and the others its task can draw, unless
+        set already."""
+        if self.instructions is None:
+            self.trained_instructions = sorted({str(t) for t in trained})
+            self.instructions = sorted({*self.trained_instructions, *map(str, others)})
+
+    @property
+    def reads_task(self) -> bool:
+        """The instruction is an input: asked for, and the training set had more than one (a constant one, as a
+        lerobot-record dataset's --dataset.single_task, tells the policy nothing)."""
+        return "task" in self.inputs and len(self.trained_instructions or self.instructions or ()) > 1
 
     def validate_features(self) -> None:
-        """Keep the inputs the policy reads (state, environment state, images) and check there is one."""
+        """Keep the inputs the policy reads (``inputs``: state, environment state, images) and check there is one."""
+        named = tuple(self.inputs)
         used = {}
         for key, ft in (self.input_features or {}).items():
-            if key in (OBS_STATE, OBS_ENV_STATE) or (ft.type is FeatureType.VISUAL and self.use_images):
+            if key == OBS_STATE:
+                keep = ("state" in named or "environment" in named) and self.state_indices != []
+            elif key == OBS_ENV_STATE:
+                keep = "environment" in named
+            else:
+                keep = ft.type is FeatureType.VISUAL and self.use_images and named_inputs.reads_image(key, named)
+            if keep:
                 used[key] = ft
         self.input_features = used
-        if not used:
+        if not used and not self.reads_task:
             raise ValueError(
-                f"the {POLICY_TYPE} policy needs {OBS_STATE}, {OBS_ENV_STATE} or images among its "
-                "inputs; none was given"
+                f"the {POLICY_TYPE} policy reads nothing: none of its inputs ({', '.join(named)}) is in the dataset"
             )
         if not self.output_features or ACTION not in self.output_features:
             raise ValueError(f"the {POLICY_TYPE} policy needs an '{ACTION}' output feature")

@@ -1,6 +1,7 @@
 """BCPolicy: behaviour cloning with action chunking, as a LeRobot PreTrainedPolicy.
 
-    [observation.state | observation.environment_state | CNN(image) per camera]  (normalised by the processor)
+    [observation.state (the kept elements) | observation.environment_state | CNN(image) per camera
+     | embedding(instruction)]  (normalised by the processor)
         -> MLP (n_layers x hidden_dim, GELU) -> chunk_size x action_dim   (normalised actions)
 
 Trained with an L1 loss on the normalised action chunk (padding past an episode's end masked out, as ACT
@@ -15,30 +16,43 @@ from collections import deque
 import torch
 import torch.nn.functional as F  # noqa: N812
 from lerobot.policies.act.modeling_act import ACTTemporalEnsembler
+from lerobot.policies.diffusion.modeling_diffusion import SpatialSoftmax
 from lerobot.policies.pretrained import PreTrainedPolicy
 from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
 from torch import Tensor, nn
 
 from policies.bc.configuration_bc import POLICY_TYPE, BCConfig
 from policies.bc.palm_frame import PalmFrame, palm_frame_indices
+from policies.inputs import task_instructions
 
 
 class ImageEncoder(nn.Module):
-    """A small CNN: stride-2 convolutions, a 4x4 adaptive pool (keeps coarse layout), a linear embedding."""
+    """A small CNN for 84-128 px images: stride-2 convolutions (the last with stride 1) with GroupNorm, then
+    spatial-softmax keypoints (LeRobot's SpatialSoftmax, from robomimic) and a linear embedding."""
 
-    def __init__(self, channels: tuple[int, ...], out_dim: int):
+    def __init__(self, channels: tuple[int, ...], keypoints: int, out_dim: int, image_shape: tuple[int, int]):
         super().__init__()
         layers, c_in = [], 3
+        h, w = image_shape
         for i, c in enumerate(channels):
-            k = 5 if i == 0 else 3
-            layers += [nn.Conv2d(c_in, c, k, stride=2, padding=k // 2), nn.GroupNorm(min(8, c), c), nn.GELU()]
+            k, stride = (5, 2) if i == 0 else (3, 2 if i < len(channels) - 1 else 1)
+            layers += [nn.Conv2d(c_in, c, k, stride=stride, padding=k // 2), nn.GroupNorm(min(8, c), c), nn.GELU()]
+            h, w = (h + stride - 1) // stride, (w + stride - 1) // stride
             c_in = c
-        self.net = nn.Sequential(
-            *layers, nn.AdaptiveAvgPool2d(4), nn.Flatten(), nn.Linear(16 * c_in, out_dim), nn.GELU()
-        )
+        self.net = nn.Sequential(*layers)
+        self.keypoints = SpatialSoftmax((c_in, h, w), num_kp=keypoints)
+        self.out = nn.Sequential(nn.Flatten(), nn.Linear(2 * keypoints, out_dim), nn.GELU())
 
     def forward(self, image: Tensor) -> Tensor:
-        return self.net(image)
+        return self.out(self.keypoints(self.net(image)))
+
+
+def random_shift(images: Tensor, pad: int) -> Tensor:
+    """DrQ's augmentation: pad by replicating the border, crop back at a random offset per image."""
+    n, _, h, w = images.shape
+    padded = F.pad(images, (pad, pad, pad, pad), mode="replicate")
+    dy, dx = torch.randint(0, 2 * pad + 1, (2, n)).tolist()
+    return torch.stack([padded[i, :, y : y + h, x : x + w] for i, (y, x) in enumerate(zip(dy, dx))])
 
 
 class BCPolicy(PreTrainedPolicy):
@@ -52,11 +66,30 @@ class BCPolicy(PreTrainedPolicy):
         self.vector_keys = [k for k in (OBS_STATE, OBS_ENV_STATE) if k in config.input_features]
         self.image_keys = sorted(config.image_features)
         self.action_dim = config.action_feature.shape[0]
+        meta = kwargs.get("dataset_meta")
+        if config.instructions is None and meta is not None:  # lerobot-train's make_policy
+            config.set_instructions(meta.tasks.index, task_instructions(meta.root))
         self.encoders = nn.ModuleList(
-            ImageEncoder(tuple(config.image_channels), config.image_embedding_dim) for _ in self.image_keys
+            ImageEncoder(
+                tuple(config.image_channels),
+                config.image_keypoints,
+                config.image_embedding_dim,
+                tuple(config.input_features[k].shape[1:]),
+            )
+            for k in self.image_keys
         )
-        width = sum(config.input_features[k].shape[0] for k in self.vector_keys) + config.image_embedding_dim * len(
-            self.image_keys
+        self.task_ids = {text: i for i, text in enumerate(config.instructions or ())} if config.reads_task else {}
+        self.task_embedding = nn.Embedding(len(self.task_ids), config.task_embedding_dim) if self.task_ids else None
+        self.register_buffer(
+            "state_indices",
+            torch.tensor(config.state_indices if config.state_indices is not None else [], dtype=torch.long),
+            persistent=False,
+        )
+        state_width = {OBS_STATE: len(config.state_indices)} if config.state_indices is not None else {}
+        width = (
+            sum(state_width.get(k, config.input_features[k].shape[0]) for k in self.vector_keys)
+            + config.image_embedding_dim * len(self.image_keys)
+            + (config.task_embedding_dim if self.task_embedding is not None else 0)
         )
         layers = []
         for _ in range(config.n_layers):
@@ -98,11 +131,29 @@ class BCPolicy(PreTrainedPolicy):
         vectors = {k: batch[k].flatten(1) for k in self.vector_keys}
         if self.palm_frame is not None:
             vectors, palm = self.palm_frame.inputs(vectors)
+        if OBS_STATE in vectors and self.config.state_indices is not None:
+            vectors[OBS_STATE] = vectors[OBS_STATE][:, self.state_indices]  # the task's elements left out
         parts = [vectors[k] for k in self.vector_keys]
-        parts += [enc(batch[k]) for enc, k in zip(self.encoders, self.image_keys)]
+        for enc, k in zip(self.encoders, self.image_keys):
+            image = batch[k]
+            if self.training and self.config.image_shift > 0:
+                image = random_shift(image, self.config.image_shift)
+            parts.append(enc(image))
+        if self.task_embedding is not None:
+            parts.append(self.task_embedding(self.instruction_ids(batch["task"], parts[0].shape[0] if parts else 1)))
         x = self.mlp(torch.cat(parts, dim=-1))
         chunk = self.head(x).view(-1, self.config.chunk_size, self.action_dim)
         return chunk if self.palm_frame is None else self.palm_frame.outputs(chunk, palm)
+
+    def instruction_ids(self, tasks, n: int) -> Tensor:
+        """The embedding rows of a batch's instructions (one string is every row's); ValueError for an
+        instruction the training set did not have."""
+        tasks = [tasks] * n if isinstance(tasks, str) else list(tasks)
+        try:
+            return torch.tensor([self.task_ids[t] for t in tasks], dtype=torch.long)
+        except KeyError as exc:
+            known = "; ".join(repr(t) for t in self.task_ids)
+            raise ValueError(f"the policy does not know the instruction {exc.args[0]!r} (it knows {known})") from None
 
     @torch.no_grad()
     def predict_action_chunk(self, batch: dict[str, Tensor], **kwargs) -> Tensor:

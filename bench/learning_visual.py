@@ -3,7 +3,7 @@ measures the state-input policies).
 
     .venv/bin/python bench/learning_visual.py [--robots glovehand,shadow] [--demos 100] [--curve 10,25,50,100]
         [--steps 3000] [--batch-size 64] [--image-size 84] [--eval-episodes 50] [--workers 2] [--data DIR]
-        [--parts main,blank,fist,curve,act,workers] [--reuse]
+        [--parts main,blank,fist,pose,curve,act,diffusion,workers] [--reuse]
 
 For each robot, HandGrasp, with the gloverec commands a user runs (each in a child process):
   record DEMOS demonstrations with cameras front and top at SIZE x SIZE (emulated glove, scripted demonstrator,
@@ -13,8 +13,11 @@ For each robot, HandGrasp, with the gloverec commands a user runs (each in a chi
          instruction alone teach)
   fist   gloverec eval --policy fist (the open hand, a fist from the script's close phase on: what the scripted
          approach gives away)
+  pose   HandPose, 50 demonstrations with the same cameras: default inputs, and without the instruction (the
+         gesture to make is only in the instruction)
   curve  images only (--inputs images), trained on the first K demonstrations, K in --curve
-  act    LeRobot's ACT through lerobot-train on the same camera dataset (no pretrained backbone, PyAV decoding)
+  act, diffusion  LeRobot's ACT and Diffusion Policy through lerobot-train on the same camera dataset without its
+         environment state and glove (lerobot-edit-dataset remove_feature), no pretrained backbone, PyAV decoding
   workers  gloverec eval --workers 1 and --workers 2 of the main policy, episodes per second, same run
 Success rates with Wilson 95 % intervals. Writes bench/results/learning_visual.json (rows of other robots or parts
 already there are kept, each with when it was measured) and bench/results/learning_visual_curve.png.
@@ -44,13 +47,13 @@ TRAIN_GOAL_S = 1800
 CAMERAS = "front,top"
 
 
-def record(robot: str, demos: int, size: int, data: Path) -> Path:
+def record(robot: str, demos: int, size: int, data: Path, task: str = TASK) -> Path:
     """A camera dataset of ``demos`` demonstrations (seeds 0..demos-1), reused from ``data`` when there."""
-    root = data / f"{TASK}_{robot}_{size}px_{demos}"
+    root = data / f"{task}_{robot}_{size}px_{demos}"
     if (root / "meta" / "info.json").is_file():
         print(f"  reusing {root}", flush=True)
         return root
-    gloverec("record", "--view", "none", "--glove", "emulator", "--task", TASK, "--robot", robot, "--episodes",
+    gloverec("record", "--view", "none", "--glove", "emulator", "--task", task, "--robot", robot, "--episodes",
              str(demos), "--cameras", CAMERAS, "--image-size", f"{size},{size}", "--root", str(root), "--repo-id",
              f"bench/{root.name}", "--seed", "0", "--fast", "--no-log", timeout=7200)  # fmt: skip
     return root
@@ -98,8 +101,9 @@ def train_eval(root: Path, out: Path, args, inputs: str | None, perturb: bool = 
     }
 
 
-def evaluate(policy: str, robot: str | None, args, perturb: bool = False, workers: int | None = None) -> dict:
-    extra = ["--task", TASK, "--robot", robot] if robot else []
+def evaluate(policy: str, robot: str | None, args, perturb: bool = False, workers: int | None = None,
+             task: str = TASK) -> dict:  # fmt: skip
+    extra = ["--task", task, "--robot", robot] if robot else []
     ev = gloverec("eval", "--policy", policy, *extra, "--episodes", str(args.eval_episodes), "--seed",
                   str(EVAL_SEED), "--workers", str(workers or args.workers),
                   *(["--perturb", "all"] if perturb else []), timeout=4 * 3600)  # fmt: skip
@@ -117,23 +121,64 @@ def evaluate(policy: str, robot: str | None, args, perturb: bool = False, worker
     return row
 
 
-def act(root: Path, out: Path, args) -> dict:
-    """LeRobot's ACT on the camera dataset (ACT_FLAGS, no ImageNet weights: nothing is downloaded)."""
+# LeRobot's Diffusion Policy, small enough for this CPU: a ResNet-18 per camera trained from scratch (GroupNorm, as
+# LeRobot requires without pretrained weights), a 64-128-256 UNet, DDPM with 10 inference steps
+DIFFUSION_FLAGS = [
+    "--policy.type=diffusion",
+    "--policy.device=cpu",
+    "--policy.push_to_hub=false",
+    "--policy.pretrained_backbone_weights=null",
+    "--policy.use_group_norm=true",
+    "--policy.crop_shape=[76,76]",
+    "--policy.down_dims=[64,128,256]",
+    "--policy.n_obs_steps=2",
+    "--policy.horizon=16",
+    "--policy.n_action_steps=8",
+    "--policy.drop_n_last_frames=7",
+    "--policy.num_inference_steps=10",
+    "--batch_size=32",
+    "--num_workers=0",
+    "--env_eval_freq=0",
+    "--log_freq=200",
+]
+LEROBOT_FLAGS = {"act": [*ACT_FLAGS, "--policy.pretrained_backbone_weights=null"], "diffusion": DIFFUSION_FLAGS}
+
+
+def robot_only(root: Path) -> Path:
+    """The dataset without what a robot does not have (the environment state, the glove), for LeRobot's policies,
+    which read every observation.* feature: lerobot-edit-dataset remove_feature, then our sidecar carried over."""
+    import subprocess
+
+    out = root.with_name(f"{root.name}_robot")
+    if not (out / "meta" / "info.json").is_file():
+        tool = str(Path(sys.executable).with_name("lerobot-edit-dataset"))
+        subprocess.run([tool, f"--repo_id=bench/{root.name}", f"--root={root}", f"--new_repo_id=bench/{out.name}",
+                        f"--new_root={out}", "--operation.type=remove_feature",
+                        "--operation.feature_names=['observation.environment_state', 'observation.glove']"],
+                       check=True, capture_output=True)  # fmt: skip
+        gloverec("carry-meta", "--root", str(out), "--from", str(root))
+    return out
+
+
+def lerobot_policy(kind: str, root: Path, out: Path, args) -> dict:
+    """LeRobot's ACT or Diffusion Policy through lerobot-train on the camera dataset (state and images: neither
+    reads the instruction), no ImageNet weights (nothing is downloaded), PyAV decoding; evaluated by gloverec."""
     import subprocess
 
     if out.exists():
         shutil.rmtree(out)
+    data = robot_only(root)
+    steps = args.act_steps if kind == "act" else args.diffusion_steps
     train = str(Path(sys.executable).with_name("lerobot-train"))
-    cmd = [train, f"--dataset.repo_id=bench/{root.name}", f"--dataset.root={root}", "--dataset.video_backend=pyav",
-           *ACT_FLAGS, "--policy.pretrained_backbone_weights=null", f"--steps={args.act_steps}",
-           f"--save_freq={args.act_steps}", f"--output_dir={out}"]  # fmt: skip
+    cmd = [train, f"--dataset.repo_id=bench/{data.name}", f"--dataset.root={data}", "--dataset.video_backend=pyav",
+           *LEROBOT_FLAGS[kind], f"--steps={steps}", f"--save_freq={steps}", f"--output_dir={out}"]  # fmt: skip
     print("  $ lerobot-train " + " ".join(cmd[1:]), flush=True)
     t = time.perf_counter()
     r = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, "OMP_NUM_THREADS": "1"})
     wall = time.perf_counter() - t
     if r.returncode != 0:
         return {"error": r.stderr.strip()[-1500:]}
-    return {"command": "lerobot-train " + " ".join(cmd[1:]), "steps": args.act_steps, "train_wall_s": round(wall, 1),
+    return {"command": "lerobot-train " + " ".join(cmd[1:]), "steps": steps, "train_wall_s": round(wall, 1),
             **evaluate(str(out), None, args)}  # fmt: skip
 
 
@@ -189,8 +234,9 @@ def main() -> None:
     p.add_argument("--eval-episodes", type=int, default=50)
     p.add_argument("--workers", type=int, default=2, help="gloverec eval --workers")
     p.add_argument("--act-steps", type=int, default=1000)
+    p.add_argument("--diffusion-steps", type=int, default=1000)
     p.add_argument("--data", default="bench/results/visual_data", help="recordings and runs, kept between runs")
-    p.add_argument("--parts", default="main,blank,fist,curve,act,workers")
+    p.add_argument("--parts", default="main,blank,fist,pose,curve,act,diffusion,workers")
     p.add_argument("--reuse", action="store_true", help="take training runs finished in --data (same steps)")
     args = p.parse_args()
     parts = set(args.parts.split(","))
@@ -216,9 +262,18 @@ def main() -> None:
                 source = root if k == args.demos else subset(root, k)
                 curve[f"{robot}/{k}"] = r = train_eval(source, data / f"run_{robot}_images_{k}", args, "images")
                 print(f"  BC images only, {k} demonstrations: {r['success_rate']:.0%} {r['wilson95']}", flush=True)
-        if "act" in parts:
-            rows[f"{key}/act/state,images"] = r = act(root, data / f"run_{robot}_act", args)
-            print(f"  ACT: {r.get('success_rate', r)}", flush=True)
+        if "pose" in parts:  # the gesture is only in the instruction: what the embedding is for
+            proot = record(robot, 50, args.image_size, data, task="pose")
+            r = train_eval(proot, data / f"run_{robot}_pose", args, None)
+            rows[f"{robot}/50/bc/state,images,task/pose"] = r
+            print(f"  pose, BC state+images+task: {r['success_rate']:.0%} {r['wilson95']}", flush=True)
+            rows[f"{robot}/50/bc/state,images/pose"] = r = train_eval(proot, data / f"run_{robot}_pose_noinstr", args,
+                                                                      "state,images")  # fmt: skip
+            print(f"  pose, BC state+images (no instruction): {r['success_rate']:.0%} {r['wilson95']}", flush=True)
+        for kind in ("act", "diffusion"):
+            if kind in parts:
+                rows[f"{key}/{kind}/state,images"] = r = lerobot_policy(kind, root, data / f"run_{robot}_{kind}", args)
+                print(f"  {kind}: {r.get('success_rate', r)}", flush=True)
         if "workers" in parts and (data / f"run_{robot}_main").exists():
             extra[robot] = r = workers_speed(str(data / f"run_{robot}_main"), args)
             print(f"  eval --workers 2: {r['speedup']}x the episodes per second of --workers 1", flush=True)

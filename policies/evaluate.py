@@ -444,12 +444,21 @@ def evaluate(
     return summarize(agent.name, u.task_name, u.robot.config.name, done, seed, t0)
 
 
-def evaluate_job(job: EvalJob, episodes: int, seed: int = EVAL_SEED, workers: int = 1, progress: bool = False,
+def worker_pool(workers: int):
+    """``workers`` spawned evaluation processes (a context manager; None for one worker), to be started before
+    this process loads the policy: their imports (torch, LeRobot, MuJoCo: seconds each) run meanwhile. Spawned, not
+    forked: a forked EGL context or torch thread pool does not survive. Each builds the agent and environment of the
+    jobs it is given, and keeps them for the next episode of the same job."""
+    if workers <= 1:
+        return contextlib.nullcontext(None)
+    return multiprocessing.get_context("spawn").Pool(workers, initializer=_worker_start)
+
+
+def evaluate_job(job: EvalJob, episodes: int, seed: int = EVAL_SEED, pool=None, progress: bool = False,
                  agent=None) -> dict:  # fmt: skip
-    """Evaluate ``job`` in this process (``workers`` 1; ``agent``: the job's, loaded already) or in ``workers``
-    processes, each building its own agent and environment and running whole episodes: the same per-seed results.
-    The pool is spawned, not forked: a forked EGL context or torch thread pool does not survive."""
-    if workers <= 1 or episodes <= 1:
+    """Evaluate ``job`` in this process (``agent``: the job's, loaded already) or, given a ``worker_pool``, in its
+    processes, each running whole episodes: the same per-seed results."""
+    if pool is None or episodes <= 1:
         agent = agent or build_agent(job)
         env = make_env(job.task, job.robot, **job.options)
         try:
@@ -460,33 +469,37 @@ def evaluate_job(job: EvalJob, episodes: int, seed: int = EVAL_SEED, workers: in
     if job.video_dir is not None:
         Path(job.video_dir).mkdir(parents=True, exist_ok=True)
     done, name = {}, None
-    ctx = multiprocessing.get_context("spawn")
-    with ctx.Pool(min(workers, episodes), initializer=_worker_start, initargs=(job,)) as pool:
-        bar = tqdm(total=episodes, desc="evaluating", unit="episode", disable=not progress, file=sys.stderr)
-        for k, who, result in pool.imap_unordered(_worker_episode, [(k, seed + k) for k in range(episodes)]):
-            done[k], name = result, who
-            bar.update()
-        bar.close()
+    bar = tqdm(total=episodes, desc="evaluating", unit="episode", disable=not progress, file=sys.stderr)
+    for k, who, result in pool.imap_unordered(_worker_episode, [(job, k, seed + k) for k in range(episodes)]):
+        done[k], name = result, who
+        bar.update()
+    bar.close()
     return summarize(name, job.task, job.robot, [done[k] for k in range(episodes)], seed, t0)
 
 
 _WORKER: dict = {}
 
 
-def _worker_start(job: EvalJob) -> None:
+def _worker_start() -> None:
     """A pool process: one torch thread, lerobot's chatter off, nothing on stdout (it may carry --json's object)."""
     import logging
 
     sys.stdout = sys.stderr
     logging.getLogger().setLevel(logging.WARNING)
     torch.set_num_threads(1)
-    _WORKER.update(job=job, agent=build_agent(job), env=make_env(job.task, job.robot, **job.options))
 
 
-def _worker_episode(item: tuple[int, int]) -> tuple[int, str, tuple[dict, str | None]]:
-    k, s = item
-    job, agent, env = _WORKER["job"], _WORKER["agent"], _WORKER["env"]
-    return k, agent.name, run_episode(agent, env, k, s, job.video_dir, job.videos)
+def _worker_episode(item: tuple[EvalJob, int, int]) -> tuple[int, str, tuple[dict, str | None]]:
+    job, k, s = item
+    if _WORKER.get("policy") != job.policy:
+        _WORKER.update(policy=job.policy, agent=build_agent(job))
+    where = (job.task, job.robot, job.options)
+    if _WORKER.get("where") != where:
+        if "env" in _WORKER:
+            _WORKER["env"].close()
+        _WORKER.update(where=where, env=make_env(job.task, job.robot, **job.options))
+    agent = _WORKER["agent"]
+    return k, agent.name, run_episode(agent, _WORKER["env"], k, s, job.video_dir, job.videos)
 
 
 def summarize(name: str, task: str, robot: str, done: list[tuple[dict, str | None]], seed: int, t0: float) -> dict:
@@ -537,24 +550,26 @@ def evaluate_checkpoint(
 ) -> dict:
     """Load a checkpoint, build the environment it needs, check the features, evaluate (in ``workers``
     processes), then again under each of ``perturbations`` (envs/tasks/perturb.py)."""
-    agent = load_policy(path)
-    guess_task, guess_robot = trained_setup(agent.context)
-    task, robot = task or guess_task, robot or guess_robot
-    if not task or not robot:
-        missing = " and ".join(f"--{n}" for n, v in (("task", task), ("robot", robot)) if not v)
-        raise GloverecError(f"the checkpoint does not say which task and robot it was trained on: pass {missing}")
-    options = {"render_mode": "rgb_array" if video_dir else None, **env_options(agent, bool(video_dir), task, robot)}
-    env = make_env(task, robot, **options)
-    try:
-        check_features(agent, env, task, robot)
-        check_instructions(agent, env)
-    finally:
-        env.close()
-    _warn_seed_overlap(agent.context, seed, episodes)
-    job = EvalJob(str(agent.path), task, robot, options, None if video_dir is None else str(video_dir), videos)
-    out = evaluate_job(job, episodes, seed, workers, progress, agent=agent)
-    return {"policy": str(agent.path), "policy_type": agent.type, **out,
-            **perturbed(job, episodes, seed, workers, progress, perturbations, agent)}  # fmt: skip
+    with worker_pool(workers) as pool:
+        agent = load_policy(path)
+        guess_task, guess_robot = trained_setup(agent.context)
+        task, robot = task or guess_task, robot or guess_robot
+        if not task or not robot:
+            missing = " and ".join(f"--{n}" for n, v in (("task", task), ("robot", robot)) if not v)
+            raise GloverecError(f"the checkpoint does not say which task and robot it was trained on: pass {missing}")
+        options = {"render_mode": "rgb_array" if video_dir else None,
+                   **env_options(agent, bool(video_dir), task, robot)}  # fmt: skip
+        env = make_env(task, robot, **options)
+        try:
+            check_features(agent, env, task, robot)
+            check_instructions(agent, env)
+        finally:
+            env.close()
+        _warn_seed_overlap(agent.context, seed, episodes)
+        job = EvalJob(str(agent.path), task, robot, options, None if video_dir is None else str(video_dir), videos)
+        out = evaluate_job(job, episodes, seed, pool, progress, agent=agent)
+        return {"policy": str(agent.path), "policy_type": agent.type, **out,
+                **perturbed(job, episodes, seed, pool, progress, perturbations, agent)}  # fmt: skip
 
 
 def evaluate_baseline(name: str, task: str, robot: str, episodes: int, seed: int = EVAL_SEED, video_dir=None,
@@ -563,11 +578,12 @@ def evaluate_baseline(name: str, task: str, robot: str, episodes: int, seed: int
     """A baseline agent (BASELINES: the scripted demonstrator, random actions, a fist) in ``task`` on ``robot``."""
     options = {"render_mode": "rgb_array" if video_dir else None, **({"image_size": VIDEO_SIZE} if video_dir else {})}
     job = EvalJob(name, task, robot, options, None if video_dir is None else str(video_dir), videos)
-    return {"policy": name, "policy_type": name, **evaluate_job(job, episodes, seed, workers, progress),
-            **perturbed(job, episodes, seed, workers, progress, perturbations)}  # fmt: skip
+    with worker_pool(workers) as pool:
+        return {"policy": name, "policy_type": name, **evaluate_job(job, episodes, seed, pool, progress),
+                **perturbed(job, episodes, seed, pool, progress, perturbations)}  # fmt: skip
 
 
-def perturbed(job: EvalJob, episodes: int, seed: int, workers: int, progress: bool, names: tuple[str, ...],
+def perturbed(job: EvalJob, episodes: int, seed: int, pool, progress: bool, names: tuple[str, ...],
               agent=None) -> dict:  # fmt: skip
     """``{"perturbed": {name: result}}``: the same episodes under each perturbation (no videos), or {} for none."""
     if not names:
@@ -575,7 +591,7 @@ def perturbed(job: EvalJob, episodes: int, seed: int, workers: int, progress: bo
     out = {}
     for name in names:
         options = {**job.options, "perturb": (name,)}
-        result = evaluate_job(replace(job, options=options, video_dir=None), episodes, seed, workers, progress, agent)
+        result = evaluate_job(replace(job, options=options, video_dir=None), episodes, seed, pool, progress, agent)
         out[name] = {k: result[k] for k in ("success_rate", "successes", "episodes", "runs", "wall_s")}
     return {"perturbed": out}
 

@@ -383,6 +383,8 @@ def test_a_camera_dataset_trains_an_image_policy_that_eval_gives_its_camera(tmp_
         "2",
         "--cameras",
         "front",
+        "--image-size",
+        "64,64",
         "--root",
         str(root),
         "--repo-id",
@@ -398,7 +400,7 @@ def test_a_camera_dataset_trains_an_image_policy_that_eval_gives_its_camera(tmp_
         "train", "--repo-id", "test/cam", "--root", str(root), "--steps", "5", "--batch-size", "8", "--out", str(out)
     )
     config = json.loads((out / "checkpoints" / "last" / "pretrained_model" / "config.json").read_text())
-    assert config["input_features"]["observation.images.front"]["shape"] == [3, 128, 128]
+    assert config["input_features"]["observation.images.front"]["shape"] == [3, 64, 64]
     # the default inputs are a robot's: joint state, camera, instruction; no environment state, no glove
     assert set(config["input_features"]) == {"observation.state", "observation.images.front"}
     assert config["inputs"] == ["state", "images", "task"]

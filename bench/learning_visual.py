@@ -3,7 +3,7 @@ measures the state-input policies).
 
     .venv/bin/python bench/learning_visual.py [--robots glovehand,shadow] [--demos 100] [--curve 10,25,50,100]
         [--steps 3000] [--batch-size 64] [--image-size 84] [--eval-episodes 50] [--workers 2] [--data DIR]
-        [--parts main,blank,fist,pose,curve,act,diffusion,workers] [--reuse]
+        [--parts main,blank,fist,pose,wrist,curve,act,diffusion,workers] [--reuse]
 
 For each robot, HandGrasp, with the gloverec commands a user runs (each in a child process):
   record DEMOS demonstrations with cameras front and top at SIZE x SIZE (emulated glove, scripted demonstrator,
@@ -15,6 +15,8 @@ For each robot, HandGrasp, with the gloverec commands a user runs (each in a chi
          approach gives away)
   pose   HandPose, 50 demonstrations with the same cameras: default inputs, and without the instruction (the
          gesture to make is only in the instruction)
+  wrist  HandGrasp with a free wrist (--wrist scripted: the policy places the hand, so only the cameras say
+         where the object is): default inputs, and with the images blanked
   curve  images only (--inputs images), trained on the first K demonstrations, K in --curve
   act, diffusion  LeRobot's ACT and Diffusion Policy through lerobot-train on the same camera dataset without its
          environment state and glove (lerobot-edit-dataset remove_feature), no pretrained backbone, PyAV decoding
@@ -47,15 +49,17 @@ TRAIN_GOAL_S = 1800
 CAMERAS = "front,top"
 
 
-def record(robot: str, demos: int, size: int, data: Path, task: str = TASK) -> Path:
-    """A camera dataset of ``demos`` demonstrations (seeds 0..demos-1), reused from ``data`` when there."""
-    root = data / f"{task}_{robot}_{size}px_{demos}"
+def record(robot: str, demos: int, size: int, data: Path, task: str = TASK, wrist: bool = False) -> Path:
+    """A camera dataset of ``demos`` demonstrations (seeds 0..demos-1), reused from ``data`` when there; ``wrist``:
+    a free wrist, the demonstrator's reach in the action (--wrist scripted)."""
+    root = data / f"{task}{'_wrist' if wrist else ''}_{robot}_{size}px_{demos}"
     if (root / "meta" / "info.json").is_file():
         print(f"  reusing {root}", flush=True)
         return root
     gloverec("record", "--view", "none", "--glove", "emulator", "--task", task, "--robot", robot, "--episodes",
              str(demos), "--cameras", CAMERAS, "--image-size", f"{size},{size}", "--root", str(root), "--repo-id",
-             f"bench/{root.name}", "--seed", "0", "--fast", "--no-log", timeout=7200)  # fmt: skip
+             f"bench/{root.name}", "--seed", "0", "--fast", "--no-log", *(["--wrist", "scripted"] if wrist else []),
+             timeout=7200)  # fmt: skip
     return root
 
 
@@ -197,7 +201,8 @@ def workers_speed(policy: str, args) -> dict:
             "goal": 1.6, "same_per_seed_results": same}  # fmt: skip
 
 
-def plot(curve: dict, path: Path) -> None:
+def plot(curve: dict, path: Path, fist: dict | None = None) -> None:
+    """Success against demonstrations per robot, with the fist baseline of each robot as a dashed line."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -209,7 +214,9 @@ def plot(curve: dict, path: Path) -> None:
         rate = [rows[k]["success_rate"] for k in ks]
         low = [rows[k]["success_rate"] - rows[k]["wilson95"][0] for k in ks]
         high = [rows[k]["wilson95"][1] - rows[k]["success_rate"] for k in ks]
-        ax.errorbar([int(k) for k in ks], rate, yerr=[low, high], marker="o", capsize=3, label=robot)
+        line = ax.errorbar([int(k) for k in ks], rate, yerr=[low, high], marker="o", capsize=3, label=robot)
+        if fist and robot in fist:
+            ax.axhline(fist[robot], ls="--", color=line[0].get_color(), alpha=0.6, label=f"{robot}: fist baseline")
     ax.set_xscale("log")
     ax.set_xticks([10, 25, 50, 100], ["10", "25", "50", "100"])
     ax.set_ylim(0, 1.02)
@@ -236,7 +243,7 @@ def main() -> None:
     p.add_argument("--act-steps", type=int, default=1000)
     p.add_argument("--diffusion-steps", type=int, default=1000)
     p.add_argument("--data", default="bench/results/visual_data", help="recordings and runs, kept between runs")
-    p.add_argument("--parts", default="main,blank,fist,pose,curve,act,diffusion,workers")
+    p.add_argument("--parts", default="main,blank,fist,pose,wrist,curve,act,diffusion,workers")
     p.add_argument("--reuse", action="store_true", help="take training runs finished in --data (same steps)")
     args = p.parse_args()
     parts = set(args.parts.split(","))
@@ -270,6 +277,13 @@ def main() -> None:
             rows[f"{robot}/50/bc/state,images/pose"] = r = train_eval(proot, data / f"run_{robot}_pose_noinstr", args,
                                                                       "state,images")  # fmt: skip
             print(f"  pose, BC state+images (no instruction): {r['success_rate']:.0%} {r['wilson95']}", flush=True)
+        if "wrist" in parts:  # the policy places the hand itself: where the object is, only the cameras tell
+            wroot = record(robot, args.demos, args.image_size, data, wrist=True)
+            rows[f"{key}/bc/state,images,task/wrist"] = r = train_eval(wroot, data / f"run_{robot}_wrist", args, None)
+            print(f"  free wrist, BC state+images+task: {r['success_rate']:.0%} {r['wilson95']}", flush=True)
+            r = train_eval(wroot, data / f"run_{robot}_wrist_blank", args, "state,task")
+            rows[f"{key}/bc/state,task/wrist"] = r
+            print(f"  free wrist, BC state+task (images blanked): {r['success_rate']:.0%} {r['wilson95']}", flush=True)
         for kind in ("act", "diffusion"):
             if kind in parts:
                 rows[f"{key}/{kind}/state,images"] = r = lerobot_policy(kind, root, data / f"run_{robot}_{kind}", args)
@@ -285,7 +299,8 @@ def main() -> None:
         robot, demos = k.split("/")
         by_robot.setdefault(robot, {})[demos] = v
     if by_robot:
-        plot(by_robot, RESULTS / "learning_visual_curve.png")
+        fist = {k.split("/")[0]: v["success_rate"] for k, v in results["rows"].items() if k.endswith("/fist/none")}
+        plot(by_robot, RESULTS / "learning_visual_curve.png", fist)
     write_results("learning_visual", {"task": TASK, "image_size": args.image_size, "cameras": CAMERAS,
                                       "eval_seeds_from": EVAL_SEED, "goal": GOAL, "margin": MARGIN, **results,
                                       "wall_s": round(time.perf_counter() - t0, 1)})  # fmt: skip

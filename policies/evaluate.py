@@ -3,13 +3,19 @@ returns, episode lengths and videos.
 
 Anything that acts is an *agent* (``reset(env, seed)``, ``act(obs) -> action``), so the same harness scores
 a LeRobot checkpoint (``PolicyAgent``: our BC, ACT from lerobot-train, any type LeRobot's factory knows),
-the scripted demonstrator the datasets were recorded with (``DemonstratorAgent``) and uniform random actions
-(``RandomAgent``): the metric is shown to fail and to succeed with the same code.
+the scripted demonstrator the datasets were recorded with (``DemonstratorAgent``), uniform random actions
+(``RandomAgent``) and a blind fist at the script's close phase (``FistAgent``): the metric is shown to fail and
+to succeed with the same code, and a policy that looks is measured against one that does not.
+
+An evaluation is an ``EvalJob`` (policy, task, robot, environment options), run in this process or, with
+``worker_pool(N)``, in N spawned processes, each episode seeded alike (the same per-seed results); ``perturbed``
+runs it again under scene changes (envs/tasks/perturb.py).
 
 A checkpoint is checked against the environment before anything runs: every input the policy reads
 (``observation.state``, ``observation.environment_state``, ``observation.images.*``) must be observed with the
-same shape (and, when the training dataset's feature names are known, the same names), and ``action`` must
-match the action space; otherwise one GloverecError line says which feature differs.
+same shape (and, when the training dataset's feature names are known, the same names), ``action`` must match the
+action space, and every instruction the task can draw must be one the policy knows (``check_instructions``);
+otherwise one GloverecError line says what differs.
 """
 
 from __future__ import annotations

@@ -103,11 +103,11 @@ def split_episodes(meta, root: Path, val_fraction: float, seed: int, successful_
 
 class FrameCache:
     """Every frame of some episodes as stacked tensors: the policy's inputs, ``action`` (chunks) and
-        ``action_is_pad`` (and ``task``, each frame's instruction, when asked for). ``batch(indices)`` gives a training
-    batch; images come back as float in [0, 1]. Images are kept decoded as uint8 in memory: 2 cameras at 84 x 84 take
-    423 MB per 10 k frames (128 x 128: 983 MB), decoded once at about 8 ms a frame.
-        ``driver`` says who drove each frame: PLAIN (a demonstration), WEARER or POLICY (a takeover recording's
-        ``intervention`` flag, recorder/record/takeover.py)."""
+    ``action_is_pad`` (and ``task``, each frame's instruction, when asked for). ``batch(indices)`` gives a training
+    batch; images come back as float in [0, 1]. Images are kept decoded as uint8 in memory: 2 cameras at 84 x 84
+    take 423 MB per 10 k frames (128 x 128: 983 MB), decoded once at about 8 ms a frame. ``driver`` says who drove
+    each frame: PLAIN (a demonstration), WEARER or POLICY (a takeover recording's ``intervention`` flag,
+    recorder/record/takeover.py)."""
 
     def __init__(
         self,
@@ -131,7 +131,7 @@ class FrameCache:
             delta_timestamps=delta_timestamps,
             video_backend=video_backend() if _has_videos(ref.root) else "pyav",  # no video: none is loaded
         )
-        wanted = [k for k in (*keys, "action_is_pad") if (k in ds.features and k != "task") or k == "action_is_pad"]
+        wanted = [k for k in (*keys, "action_is_pad") if k in ds.features or k == "action_is_pad"]
         columns: dict[str, list] = {k: [] for k in wanted}
         takeover = "intervention" in ds.features
         driver = []

@@ -70,14 +70,8 @@ class PolicyAgent:
 
     def reset(self, env, seed: int) -> None:
         self.policy.reset()
-        if self.reads_task:  # the episode's instruction, as the recorder stores it in the dataset's task
+        if self.reads_task:  # the episode's instruction, as the recorder stores it (check_instructions: known)
             self.instruction = env.unwrapped.instruction()
-            known = self.policy.config.instructions
-            if self.instruction not in known:
-                raise GloverecError(
-                    f"episode seed {seed}: the policy does not know the instruction {self.instruction!r} (it knows "
-                    f"{len(known)}, e.g. {known[0]!r}): it was trained for another task or task config"
-                )
 
     def act(self, obs: dict) -> np.ndarray:
 
@@ -461,16 +455,18 @@ def worker_pool(workers: int):
 
 
 def evaluate_job(job: EvalJob, episodes: int, seed: int = EVAL_SEED, pool=None, progress: bool = False,
-                 agent=None) -> dict:  # fmt: skip
-    """Evaluate ``job`` in this process (``agent``: the job's, loaded already) or, given a ``worker_pool``, in its
-    processes, each running whole episodes: the same per-seed results."""
+                 agent=None, env=None) -> dict:  # fmt: skip
+    """Evaluate ``job`` in this process (``agent``, ``env``: the job's, built already; the caller closes ``env``)
+    or, given a ``worker_pool``, in its processes, each running whole episodes: the same per-seed results."""
     if pool is None or episodes <= 1:
         agent = agent or build_agent(job)
-        env = make_env(job.task, job.robot, **job.options)
+        own = env is None
+        env = make_env(job.task, job.robot, **job.options) if own else env
         try:
             return evaluate(agent, env, episodes, seed, job.video_dir, job.videos, progress)
         finally:
-            env.close()
+            if own:
+                env.close()
     t0 = time.perf_counter()
     if job.video_dir is not None:
         Path(job.video_dir).mkdir(parents=True, exist_ok=True)
@@ -569,11 +565,11 @@ def evaluate_checkpoint(
         try:
             check_features(agent, env, task, robot)
             check_instructions(agent, env)
+            _warn_seed_overlap(agent.context, seed, episodes)
+            job = EvalJob(str(agent.path), task, robot, options, None if video_dir is None else str(video_dir), videos)
+            out = evaluate_job(job, episodes, seed, pool, progress, agent=agent, env=env)
         finally:
             env.close()
-        _warn_seed_overlap(agent.context, seed, episodes)
-        job = EvalJob(str(agent.path), task, robot, options, None if video_dir is None else str(video_dir), videos)
-        out = evaluate_job(job, episodes, seed, pool, progress, agent=agent)
         return {"policy": str(agent.path), "policy_type": agent.type, **out,
                 **perturbed(job, episodes, seed, pool, progress, perturbations, agent)}  # fmt: skip
 

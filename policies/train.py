@@ -310,9 +310,8 @@ def _check_alike(meta, ref: DatasetRef, other, other_ref: DatasetRef, keys: list
 def describe_inputs(cfg) -> str:
     """What a policy reads, for people: "observation.state (40 of 53 elements), observation.images.front, task
     (4 instructions)"."""
-    parts = []
+    parts, idx = [], getattr(cfg, "state_indices", None)
     for key, ft in cfg.input_features.items():
-        idx = getattr(cfg, "state_indices", None)
         parts.append(f"{key} ({len(idx)} of {ft.shape[0]} elements)" if key == "observation.state" and idx else key)
     if getattr(cfg, "reads_task", False):
         parts.append(f"task ({len(cfg.trained_instructions)} of the task's {len(cfg.instructions)} instructions)")

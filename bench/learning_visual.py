@@ -160,7 +160,9 @@ def robot_only(root: Path) -> Path:
                         f"--new_root={out}", "--operation.type=remove_feature",
                         "--operation.feature_names=['observation.environment_state', 'observation.glove']"],
                        check=True, capture_output=True)  # fmt: skip
-        gloverec("carry-meta", "--root", str(out), "--from", str(root))
+        # carry-meta prints no JSON (it has no --json), so not through gloverec()
+        subprocess.run([sys.executable, "-m", "recorder.cli", "carry-meta", "--root", str(out), "--from", str(root)],
+                       check=True, capture_output=True)  # fmt: skip
     return out
 
 

@@ -78,6 +78,13 @@ def sidecar(root: Path) -> dict[int, dict]:
     return {int(e["episode_index"]): e for e in read_sidecar(root)}
 
 
+def recorded_with(root: Path | None) -> dict:
+    """The sidecar record of a dataset's first episode (its robot, env_task, ...: one per dataset), or {} for a
+    dataset without our sidecar (lerobot-record's)."""
+    side = sidecar(root) if root is not None else {}
+    return side[min(side)] if side else {}
+
+
 def split_episodes(meta, root: Path, val_fraction: float, seed: int, successful_only: bool) -> tuple[list, list]:
     """(train, validation) episode indices: a seeded shuffle, the last ``val_fraction`` for validation
     (at least one when there are two or more episodes). ``successful_only`` keeps the episodes our sidecar

@@ -44,7 +44,7 @@ import policies.bc  # noqa: F401  (registers gloverec_bc)
 from envs.robots import load_robot, robot_names
 from envs.tasks import CAMERAS
 from envs.tasks.base import BASE_POSITION, action_names
-from policies.data import dataset_info, sidecar
+from policies.data import dataset_info, recorded_with, sidecar
 from recorder import GloverecError
 from recorder.demonstrator import make_demonstrator
 from recorder.retarget import Retargeter
@@ -188,8 +188,7 @@ def policy_context(pretrained: Path) -> dict:
         return ctx
     if root is not None and (root / "meta" / "info.json").is_file():
         info = dataset_info(root)
-        side = sidecar(root)
-        first = side[min(side)] if side else {}
+        first = recorded_with(root)
         ctx.update(
             fps=info.get("fps"),
             robot=info.get("robot_type") or first.get("robot"),

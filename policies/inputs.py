@@ -35,10 +35,9 @@ def task_instructions(root) -> list[str]:
     """Every instruction the task a dataset was recorded in can draw (our sidecar names the task and robot; the
     task registry's ``instructions``), or [] for a dataset without our sidecar (lerobot-record's)."""
     import envs  # MuJoCo: only when a policy is made
-    from recorder.record.sidecar import read_sidecar
+    from policies.data import recorded_with
 
-    records = read_sidecar(root) if root is not None else []
-    first = records[0] if records else {}
+    first = recorded_with(root)
     if first.get("env_task") not in envs.task_names() or not first.get("robot"):
         return []
     try:

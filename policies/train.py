@@ -47,7 +47,7 @@ from tqdm import tqdm
 import policies.bc  # noqa: F401  (registers gloverec_bc)
 from policies import inputs as named_inputs
 from policies.config import TrainConfig
-from policies.data import DatasetRef, FrameCache, load_meta, resolve, sidecar, split_episodes
+from policies.data import DatasetRef, FrameCache, load_meta, recorded_with, resolve, split_episodes
 from recorder import GloverecError
 from recorder.video_backend import video_backend
 
@@ -288,8 +288,7 @@ def _loop(bar, train_cache, val_cache, pre, post, policy_obj, optimizer, schedul
 def _check_alike(meta, ref: DatasetRef, other, other_ref: DatasetRef, keys: list[str]) -> None:
     """One line when ``other`` cannot train with ``ref``: another rate, or a policy input or the action missing or
     shaped or named otherwise."""
-    mine, theirs = sidecar(ref.root), sidecar(other_ref.root)
-    task, other_task = (next(iter(x.values()), {}).get("env_task") for x in (mine, theirs))
+    task, other_task = (recorded_with(r.root).get("env_task") for r in (ref, other_ref))
     if task and other_task and task != other_task:
         raise GloverecError(f"the task differs between {ref.repo_id} and {other_ref.repo_id} ({task}, {other_task}): "
                             "train them apart")  # fmt: skip
@@ -336,8 +335,7 @@ def _validation_loss(policy, pre, cache: FrameCache, batch_size: int) -> float |
 
 def _checkpoint_extras(ref: DatasetRef, meta) -> dict:
     """gloverec.json: what `gloverec eval` needs to rebuild the environment and check it matches."""
-    side = sidecar(ref.root)
-    first = side[min(side)] if side else {}
+    first = recorded_with(ref.root)
     return {
         "dataset": ref.as_dict(),
         "fps": meta.fps,

@@ -3,7 +3,7 @@ measures the state-input policies).
 
     .venv/bin/python bench/learning_visual.py [--robots glovehand,shadow] [--demos 100] [--curve 10,25,50,100]
         [--steps 3000] [--batch-size 64] [--image-size 84] [--eval-episodes 50] [--workers 2] [--data DIR]
-        [--parts main,blank,fist,pose,wrist,curve,act,diffusion,workers] [--reuse]
+        [--parts main,blank,fist,pose,wrist,curve,dexterous,act,diffusion,workers] [--dexterous keys] [--reuse]
 
 For each robot, HandGrasp, with the gloverec commands a user runs (each in a child process):
   record DEMOS demonstrations with cameras front and top at SIZE x SIZE (emulated glove, scripted demonstrator,
@@ -17,6 +17,8 @@ For each robot, HandGrasp, with the gloverec commands a user runs (each in a chi
          gesture to make is only in the instruction)
   wrist  HandGrasp with a free wrist (--wrist scripted: the policy places the hand, so only the cameras say
          where the object is): default inputs, and with the images blanked
+  dexterous  each task of --dexterous (pinch, keys, turn), 50 demonstrations with the same cameras: default inputs,
+         and with the images blanked (HandKeys: which key is lit is only in the scene)
   curve  images only (--inputs images), trained on the first K demonstrations, K in --curve
   act, diffusion  LeRobot's ACT and Diffusion Policy through lerobot-train on the same camera dataset without its
          environment state and glove (lerobot-edit-dataset remove_feature), no pretrained backbone, PyAV decoding
@@ -45,6 +47,7 @@ TASK = "grasp"
 EVAL_SEED = 100_000
 GOAL = 0.80  # images + state + instruction, from at most 100 demonstrations
 MARGIN = 0.15  # above the blanked-image and fist baselines
+DEXTEROUS_GOAL = 0.70  # each dexterous task, above its blanked-image policy
 TRAIN_GOAL_S = 1800
 CAMERAS = "front,top"
 
@@ -245,7 +248,8 @@ def main() -> None:
     p.add_argument("--act-steps", type=int, default=1000)
     p.add_argument("--diffusion-steps", type=int, default=1000)
     p.add_argument("--data", default="bench/results/visual_data", help="recordings and runs, kept between runs")
-    p.add_argument("--parts", default="main,blank,fist,pose,wrist,curve,act,diffusion,workers")
+    p.add_argument("--parts", default="main,blank,fist,pose,wrist,curve,dexterous,act,diffusion,workers")
+    p.add_argument("--dexterous", default="keys", help="tasks of the dexterous part")
     p.add_argument("--reuse", action="store_true", help="take training runs finished in --data (same steps)")
     args = p.parse_args()
     parts = set(args.parts.split(","))
@@ -279,6 +283,15 @@ def main() -> None:
             rows[f"{robot}/50/bc/state,images/pose"] = r = train_eval(proot, data / f"run_{robot}_pose_noinstr", args,
                                                                       "state,images")  # fmt: skip
             print(f"  pose, BC state+images (no instruction): {r['success_rate']:.0%} {r['wilson95']}", flush=True)
+        if "dexterous" in parts:  # goal: each >= DEXTEROUS_GOAL and above its own blanked-image policy
+            for task in args.dexterous.split(","):
+                droot = record(robot, 50, args.image_size, data, task=task)
+                rows[f"{robot}/50/bc/state,images,task/{task}"] = r = train_eval(droot, data / f"run_{robot}_{task}",
+                                                                                 args, None)  # fmt: skip
+                print(f"  {task}, BC state+images+task: {r['success_rate']:.0%} {r['wilson95']}", flush=True)
+                r = train_eval(droot, data / f"run_{robot}_{task}_blank", args, "state,task")
+                rows[f"{robot}/50/bc/state,task/{task}"] = r
+                print(f"  {task}, BC state+task (images blanked): {r['success_rate']:.0%} {r['wilson95']}", flush=True)
         if "wrist" in parts:  # the policy places the hand itself: where the object is, only the cameras tell
             wroot = record(robot, args.demos, args.image_size, data, wrist=True)
             rows[f"{key}/bc/state,images,task/wrist"] = r = train_eval(wroot, data / f"run_{robot}_wrist", args, None)
@@ -304,7 +317,8 @@ def main() -> None:
         fist = {k.split("/")[0]: v["success_rate"] for k, v in results["rows"].items() if k.endswith("/fist/none")}
         plot(by_robot, RESULTS / "learning_visual_curve.png", fist)
     write_results("learning_visual", {"task": TASK, "image_size": args.image_size, "cameras": CAMERAS,
-                                      "eval_seeds_from": EVAL_SEED, "goal": GOAL, "margin": MARGIN, **results,
+                                      "eval_seeds_from": EVAL_SEED, "goal": GOAL, "margin": MARGIN,
+                                      "dexterous_goal": DEXTEROUS_GOAL, **results,
                                       "wall_s": round(time.perf_counter() - t0, 1)})  # fmt: skip
 
 

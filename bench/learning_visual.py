@@ -78,8 +78,9 @@ def subset(root: Path, first: int) -> Path:
 
 def train_eval(root: Path, out: Path, args, inputs: str | None, perturb: bool = False) -> dict:
     """Train (or, with --reuse, take the finished run in ``out``) and evaluate."""
-    summary = out / "train_summary.json"
-    if args.reuse and summary.is_file() and json.loads(summary.read_text())["steps"] == args.steps:
+    summary, config = out / "train_summary.json", out / "checkpoints" / "last" / "pretrained_model" / "config.json"
+    if args.reuse and summary.is_file() and json.loads(summary.read_text())["steps"] == args.steps \
+            and trained_as_default(json.loads(config.read_text())):  # fmt: skip
         print(f"  reusing the trained {out}", flush=True)
         trained = json.loads(summary.read_text())
         wall = trained["wall_s"]
@@ -96,6 +97,7 @@ def train_eval(root: Path, out: Path, args, inputs: str | None, perturb: bool = 
     return {
         "inputs": trained["inputs"],
         "train": {
+            "image_shift": json.loads(config.read_text())["image_shift"],  # px: the DrQ augmentation
             "steps": args.steps,
             "batch_size": args.batch_size,
             "episodes": trained["train_episodes"],
@@ -106,6 +108,15 @@ def train_eval(root: Path, out: Path, args, inputs: str | None, perturb: bool = 
         },  # fmt: skip
         **ev,
     }
+
+
+def trained_as_default(config: dict) -> bool:
+    """Whether a checkpoint's config.json has BC's default DrQ shift, or reads no camera (a run kept in --data is
+    reused only then)."""
+    from policies.bc.configuration_bc import BCConfig
+
+    cameras = any(k.startswith("observation.images.") for k in config.get("input_features", {}))
+    return not cameras or config["image_shift"] == BCConfig.image_shift
 
 
 def evaluate(policy: str, robot: str | None, args, perturb: bool = False, workers: int | None = None,

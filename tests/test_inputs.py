@@ -3,6 +3,7 @@ inside observation.state left out unless the environment state is asked for."""
 
 import pytest
 import torch
+from hypothesis import given, settings, strategies as st
 from lerobot.configs.types import FeatureType, PolicyFeature
 
 from policies import inputs
@@ -59,3 +60,25 @@ def test_a_robot_policy_reads_neither_the_goal_nor_the_object_inside_the_state()
     assert list(images_only.config.input_features) == ["observation.images.top"] and not images_only.config.reads_task
     one_instruction = _policy(inputs.ROBOT, instructions=("pick it up",))  # lerobot-record's single_task
     assert not one_instruction.config.reads_task and one_instruction.task_embedding is None
+
+
+@settings(max_examples=40, deadline=None)
+@given(pad=st.integers(1, 4), n=st.integers(1, 3), seed=st.integers(0, 2**31 - 1))
+def test_a_random_shift_moves_each_image_whole_by_at_most_pad_pixels(pad, n, seed):
+    """`image_shift` (off by default, `policy: {image_shift: 4}` turns it on): each image of the batch is the
+    original translated by one offset of at most ``pad`` pixels per axis, the border replicated."""
+    from policies.bc.modeling_bc import random_shift
+
+    torch.manual_seed(seed)
+    images = torch.rand(n, 3, 12, 10)
+    shifted = random_shift(images, pad)
+    assert shifted.shape == images.shape
+    rows, cols = torch.arange(12), torch.arange(10)
+    for i in range(n):
+        found = [
+            (dy, dx)
+            for dy in range(-pad, pad + 1)
+            for dx in range(-pad, pad + 1)
+            if torch.equal(shifted[i], images[i][:, (rows + dy).clamp(0, 11)][:, :, (cols + dx).clamp(0, 9)])
+        ]
+        assert found, f"image {i} is not a translation of at most {pad} px"

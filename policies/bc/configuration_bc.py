@@ -56,7 +56,9 @@ class BCConfig(PreTrainedConfig):
     image_channels: tuple[int, ...] = (32, 32, 32)
     image_keypoints: int = 32
     image_embedding_dim: int = 64
-    image_shift: int = 4  # training augmentation: random shifts by up to this many pixels (DrQ), 0 off
+    # training augmentation: random shifts by up to this many pixels (DrQ), 0 off (the default: 4 px moved HandKeys'
+    # lit key onto its neighbour's place in an 84 px image, 8 % against 100 %; HandGrasp 94 % against 96 %)
+    image_shift: int = 0
     task_embedding_dim: int = 32
     # the instructions the embedding knows: the training set's, and every other one its task can draw (an
     # embedding row never trained); one outside them is an error

@@ -104,6 +104,9 @@ test: $(STAMP) system video firmware
 check: $(STAMP)
 	$(PYTEST) -n 2 -m "not process and not serial"
 
+# The benchmarks' extra brings diffusers (LeRobot's Diffusion Policy, bench/learning_visual.py). Once it is
+# installed, every process that imports lerobot also loads it: 1-3 s more per gloverec or lerobot-* command
+# here. `make test`'s times are for a .venv without it (`pip uninstall diffusers` gives them back).
 bench: $(STAMP)
 	$(PY) -m pip install -q -e '.[test,bench]'
 	@mkdir -p bench/results

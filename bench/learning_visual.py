@@ -198,8 +198,10 @@ def lerobot_policy(kind: str, root: Path, out: Path, args) -> dict:
     wall = time.perf_counter() - t
     if r.returncode != 0:
         return {"error": r.stderr.strip()[-1500:]}
+    logged = [line for line in (r.stdout + r.stderr).splitlines() if " step:" in line and " loss:" in line]
+    last = logged[-1].split(" step:")[1] if logged else None  # lerobot-train's last log line: step, loss, times
     return {"command": "lerobot-train " + " ".join(cmd[1:]), "steps": steps, "train_wall_s": round(wall, 1),
-            **evaluate(str(out), None, args)}  # fmt: skip
+            "last_log": last, **evaluate(str(out), None, args)}  # fmt: skip
 
 
 def workers_speed(policy: str, args) -> dict:

@@ -50,6 +50,7 @@ MARGIN = 0.15  # above the blanked-image and fist baselines
 DEXTEROUS_GOAL = 0.70  # each dexterous task, above its blanked-image policy
 TRAIN_GOAL_S = 1800
 CAMERAS = "front,top"
+DEFAULT_INPUTS = "state,images,task"  # gloverec train's default: what a deployed robot has
 
 
 def record(robot: str, demos: int, size: int, data: Path, task: str = TASK, wrist: bool = False) -> Path:
@@ -108,6 +109,16 @@ def train_eval(root: Path, out: Path, args, inputs: str | None, perturb: bool = 
         },  # fmt: skip
         **ev,
     }
+
+
+def with_twin(rows: dict, prefix: str, what: str, root: Path, run: Path, args, twin: str, suffix: str) -> None:
+    """Rows "PREFIX/bc/INPUTS/WHAT" of a policy with the default inputs (trained in ``run``) and of its twin trained
+    on ``twin`` inputs (in ``run``_``suffix``): the images blanked, or the instruction left out."""
+    for inputs, out in ((DEFAULT_INPUTS, run), (twin, run.with_name(f"{run.name}_{suffix}"))):
+        rows[f"{prefix}/bc/{inputs}/{what}"] = r = train_eval(
+            root, out, args, None if inputs == DEFAULT_INPUTS else inputs
+        )
+        print(f"  {what}, BC {inputs.replace(',', '+')}: {r['success_rate']:.0%} {r['wilson95']}", flush=True)
 
 
 def trained_as_default(config: dict) -> bool:
@@ -290,28 +301,14 @@ def main() -> None:
                 print(f"  BC images only, {k} demonstrations: {r['success_rate']:.0%} {r['wilson95']}", flush=True)
         if "pose" in parts:  # the gesture is only in the instruction: what the embedding is for
             proot = record(robot, 50, args.image_size, data, task="pose")
-            r = train_eval(proot, data / f"run_{robot}_pose", args, None)
-            rows[f"{robot}/50/bc/state,images,task/pose"] = r
-            print(f"  pose, BC state+images+task: {r['success_rate']:.0%} {r['wilson95']}", flush=True)
-            rows[f"{robot}/50/bc/state,images/pose"] = r = train_eval(proot, data / f"run_{robot}_pose_noinstr", args,
-                                                                      "state,images")  # fmt: skip
-            print(f"  pose, BC state+images (no instruction): {r['success_rate']:.0%} {r['wilson95']}", flush=True)
+            with_twin(rows, f"{robot}/50", "pose", proot, data / f"run_{robot}_pose", args, "state,images", "noinstr")
         if "dexterous" in parts:  # goal: each >= DEXTEROUS_GOAL and above its own blanked-image policy
             for task in args.dexterous.split(","):
                 droot = record(robot, 50, args.image_size, data, task=task)
-                rows[f"{robot}/50/bc/state,images,task/{task}"] = r = train_eval(droot, data / f"run_{robot}_{task}",
-                                                                                 args, None)  # fmt: skip
-                print(f"  {task}, BC state+images+task: {r['success_rate']:.0%} {r['wilson95']}", flush=True)
-                r = train_eval(droot, data / f"run_{robot}_{task}_blank", args, "state,task")
-                rows[f"{robot}/50/bc/state,task/{task}"] = r
-                print(f"  {task}, BC state+task (images blanked): {r['success_rate']:.0%} {r['wilson95']}", flush=True)
+                with_twin(rows, f"{robot}/50", task, droot, data / f"run_{robot}_{task}", args, "state,task", "blank")
         if "wrist" in parts:  # the policy places the hand itself: where the object is, only the cameras tell
             wroot = record(robot, args.demos, args.image_size, data, wrist=True)
-            rows[f"{key}/bc/state,images,task/wrist"] = r = train_eval(wroot, data / f"run_{robot}_wrist", args, None)
-            print(f"  free wrist, BC state+images+task: {r['success_rate']:.0%} {r['wilson95']}", flush=True)
-            r = train_eval(wroot, data / f"run_{robot}_wrist_blank", args, "state,task")
-            rows[f"{key}/bc/state,task/wrist"] = r
-            print(f"  free wrist, BC state+task (images blanked): {r['success_rate']:.0%} {r['wilson95']}", flush=True)
+            with_twin(rows, key, "wrist", wroot, data / f"run_{robot}_wrist", args, "state,task", "blank")
         for kind in ("act", "diffusion"):
             if kind in parts:
                 rows[f"{key}/{kind}/state,images"] = r = lerobot_policy(kind, root, data / f"run_{robot}_{kind}", args)

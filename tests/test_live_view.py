@@ -10,6 +10,7 @@ import socket
 import subprocess
 import sys
 import time
+from urllib.request import urlopen
 
 import mujoco
 import numpy as np
@@ -120,6 +121,12 @@ def test_web_view_in_a_browser(tmp_path):
                     "--reset-time-s", "1", "--view", f"web:{port}")  # fmt: skip
     rec.wait_for(f"live view: http://127.0.0.1:{port}/")
     rec.wait_for("episode 0 started")
+    url = f"http://127.0.0.1:{port}"
+    time.sleep(1.0)
+    assert json.loads(urlopen(f"{url}/status", timeout=30).read())["frames"] == 0  # no page: nothing drawn
+    assert urlopen(f"{url}/frame.jpg", timeout=30).read()[:2] == b"\xff\xd8"  # a JPEG drawn for the request
+    drawn = json.loads(urlopen(f"{url}/status", timeout=30).read())["frames"]
+    assert drawn >= 1, drawn
     options = Options()
     for flag in (
         "--headless=new",
@@ -157,6 +164,7 @@ def test_web_view_in_a_browser(tmp_path):
     summary = rec.finish()
     side = read_sidecar(tmp_path / "ds")
     assert summary["episodes_saved"] == 2 and side[0]["frames"] < 12 * 30 - 30 and side[1]["frames"] == 12 * 30
+    assert summary["view_frames"] > drawn, summary  # and for the page's stream
 
 
 @pytest.mark.process

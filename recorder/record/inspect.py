@@ -38,10 +38,10 @@ def load_meta(repo_id: str, root: Path):
         raise GloverecError(f"cannot read {root}: {type(exc).__name__}: {str(exc).splitlines()[0]}") from None
 
 
-def episodes_table(meta, root: Path) -> list[dict]:
-    """Per episode of ``meta`` (the dataset at ``root``'s LeRobotDatasetMetadata): frames, length, task and our
-    sidecar's columns."""
-    side = {s["episode_index"]: s for s in read_sidecar(root)}
+def episodes_table(meta) -> list[dict]:
+    """Per episode of ``meta`` (a dataset's LeRobotDatasetMetadata): frames, length, task and our sidecar's
+    columns."""
+    side = {s["episode_index"]: s for s in read_sidecar(Path(meta.root))}
     rows = []
     for e in range(meta.total_episodes):
         ep = meta.episodes[e]
@@ -78,7 +78,7 @@ def action_state_pairs(action_names, state_names, robot: str | None) -> list[tup
     return pairs
 
 
-def plot_episode(meta, root: Path, episode: int, out: Path) -> Path:
+def plot_episode(meta, episode: int, out: Path) -> Path:
     """A PNG grid: per actuated joint, the action (target) and the joint position it produced (``meta``: the
     dataset's LeRobotDatasetMetadata, read once by the caller)."""
     import matplotlib  # the Agg backend must be chosen before pyplot loads: both here
@@ -89,7 +89,7 @@ def plot_episode(meta, root: Path, episode: int, out: Path) -> Path:
 
     if not 0 <= episode < meta.total_episodes:
         raise GloverecError(f"no episode {episode}: the dataset has episodes 0-{meta.total_episodes - 1}")
-    ds = LeRobotDataset(meta.repo_id, root=root, episodes=[episode], video_backend=video_backend())
+    ds = LeRobotDataset(meta.repo_id, root=meta.root, episodes=[episode], video_backend=video_backend())
     data = ds.hf_dataset.with_format("numpy")
     action, state = np.stack(data["action"]), np.stack(data["observation.state"])
     t = np.asarray(data["timestamp"])
@@ -239,11 +239,11 @@ def run(args) -> int:
         raise GloverecError(f"no dataset at {root}")
     check_dataset(root)  # a damaged dataset: one line saying what is wrong, before lerobot reads it
     meta = load_meta(args.repo_id, root)
-    rows = episodes_table(meta, root)
+    rows = episodes_table(meta)
     plot = None
     if not args.no_plot and rows:
         plot = Path(args.plot) if args.plot else root.parent / f"{root.name}_episode{args.episode}.png"
-        plot_episode(meta, root, args.episode, plot)
+        plot_episode(meta, args.episode, plot)
     if args.json:
         print(json.dumps({"root": str(root), "episodes": rows, "plot": str(plot) if plot else None}))
         return 0

@@ -93,10 +93,15 @@ class LiveView:
             self.view.close()
 
     def summary(self) -> dict:
-        """The view and the frame rate it drew at (known once closed)."""
+        """The view, the frame rate it drew at and the frames it drew (known once closed)."""
         if self.view is None:
             return {"view": "none"}
-        return {"view": str(self.view.spec), "view_fps": round(self.view.stats.get("fps", 0.0), 1)}
+        stats = self.view.stats
+        return {
+            "view": str(self.view.spec),
+            "view_fps": round(stats.get("fps", 0.0), 1),
+            "view_frames": stats.get("frames", 0),
+        }
 
     # ------------------------------------------------------------ internals
     def _publish(self, status: dict, stats=None, wrist=None) -> None:

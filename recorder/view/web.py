@@ -1,10 +1,11 @@
 """The web view: for headless machines and remote operators. A page served on 127.0.0.1 (another address only
-when asked: ``--view web:0.0.0.0:8765``) with the live scene rendered offscreen (EGL) as an MJPEG stream, the
-status text, and buttons for next, record again, zero, stop and take over, each also on a key (the terminal's: →
-n Enter, ← r, z, Esc q, t: control between the policy and the wearer in a takeover recording; h shows or hides the
-human hand). Each browser is served by its own thread that sends the newest frame when it can, so a slow or closed
-page never holds up the rendering, let alone the recording (which runs in another process). The standard library's
-HTTP server is enough for one page, a stream and five buttons on a local network.
+when asked: ``--view web:0.0.0.0:8765``) with the live scene rendered offscreen (EGL) as an MJPEG stream while a
+page shows it, the status text (``/status``, with the frames drawn so far), and buttons for next, record again,
+zero, stop and take over, each also on a key (the terminal's: → n Enter, ← r, z, Esc q, t: control between the
+policy and the wearer in a takeover recording; h shows or hides the human hand). Each browser is served by its own
+thread that sends the newest frame when it can, so a slow or closed page never holds up the rendering, let alone
+the recording (which runs in another process). The standard library's HTTP server is enough for one page, a stream
+and five buttons on a local network.
 """
 
 from __future__ import annotations
@@ -68,18 +69,44 @@ PAGE = PAGE.replace(
 
 
 class _Frames:
-    """The newest JPEG and status, with a condition the stream handlers wait on."""
+    """The newest JPEG and status, with a condition the stream handlers wait on, and whether anyone looks: a
+    frame is rendered only for an open stream or a /frame.jpg waiting for one (software rendering takes tens of
+    milliseconds of a core per frame, spent for nobody while no page is open)."""
 
     def __init__(self):
         self.cond = threading.Condition()
         self.jpeg = b""
         self.rows: list = []
         self.seq = 0
+        self.streams = 0  # open /stream answers
+        self.asked = 0  # /frame.jpg answers waiting for a frame
+
+    @property
+    def watched(self) -> bool:
+        with self.cond:
+            return self.streams > 0 or self.asked > 0
 
     def put(self, jpeg: bytes, rows: list) -> None:
         with self.cond:
             self.jpeg, self.rows, self.seq = jpeg, rows, self.seq + 1
             self.cond.notify_all()
+
+    def status(self, rows: list) -> None:
+        """The status rows without a new image (nobody looks at the scene)."""
+        with self.cond:
+            self.rows = rows
+
+    def snapshot(self, timeout: float = 30.0) -> bytes:
+        """A frame rendered after the request (the last one, if none comes within ``timeout``: the view renders
+        with the CPU the recording leaves; empty if it never drew one)."""
+        with self.cond:
+            self.asked += 1
+            seq = self.seq
+            try:
+                self.cond.wait_for(lambda: self.seq != seq, timeout)
+            finally:
+                self.asked -= 1
+            return self.jpeg
 
     def after(self, seq: int, timeout: float = 1.0) -> tuple[int, bytes]:
         with self.cond:
@@ -108,7 +135,9 @@ def serve(
             if frame is not None:
                 last = frame
                 stage.apply(frame)
-            if last is not None:
+            if last is not None and not frames.watched:
+                frames.status(overlay.lines(last.status, overlay.WEB_KEY_NAMES))
+            elif last is not None:
                 renderer.update_scene(stage.data, camera=camera, scene_option=opt)
                 stage.decorate(renderer.scene, opt)
                 buf = io.BytesIO()
@@ -133,9 +162,13 @@ def _handler(frames: _Frames, events, stage: Stage):
             if self.path in ("/", "/index.html"):
                 self._send(200, "text/html; charset=utf-8", PAGE.encode())
             elif self.path == "/status":
-                self._send(200, "application/json", json.dumps({"rows": frames.rows}).encode())
+                self._send(200, "application/json", json.dumps({"rows": frames.rows, "frames": frames.seq}).encode())
             elif self.path == "/frame.jpg":
-                self._send(200, "image/jpeg", frames.after(-1)[1])
+                jpeg = frames.snapshot()
+                if jpeg:
+                    self._send(200, "image/jpeg", jpeg)
+                else:
+                    self._send(503, "text/plain", b"no frame drawn yet")
             elif self.path == "/stream":
                 self._stream()
             else:
@@ -168,6 +201,8 @@ def _handler(frames: _Frames, events, stage: Stage):
             self.send_header("Cache-Control", "no-store")
             self.end_headers()
             seq = -1
+            with frames.cond:
+                frames.streams += 1
             try:
                 while True:
                     seq, jpeg = frames.after(seq)
@@ -178,5 +213,8 @@ def _handler(frames: _Frames, events, stage: Stage):
                     self.wfile.flush()
             except (BrokenPipeError, ConnectionResetError, OSError):
                 return  # the page went away: nothing else notices
+            finally:
+                with frames.cond:
+                    frames.streams -= 1
 
     return Handler

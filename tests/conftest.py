@@ -1,3 +1,4 @@
+import json
 import os
 import shutil
 import signal
@@ -8,6 +9,9 @@ from pathlib import Path
 
 import pytest
 from filelock import FileLock
+
+from recorder.paths import CACHE_ENV, CALIBRATION_ENV, HUB_ENV
+from recorder.plugins import PLUGINS_ENV
 
 REPO = Path(__file__).resolve().parents[1]
 FW_BUILD = REPO / "build" / "firmware"  # `make firmware`'s host build: make test builds and ctests it first
@@ -20,17 +24,120 @@ VIEWLESS = ("record", "calibrate")  # recorded without a live view here (`--view
 
 
 def gloverec(*args: str, **kw) -> subprocess.CompletedProcess:
-    """Run the CLI as a user would, in a child process (record and calibrate with `--view none` unless a test
-    chooses a view)."""
+    """Run the CLI as a user would, in a child process of its own (record and calibrate with `--view none` unless
+    a test chooses a view): forked by this worker's zygote (tests/zygote.py: the imports paid once) unless the
+    call sets anything but ``timeout`` and ``env``, its ``env`` changes a variable other than those read when a
+    command runs (PER_CALL_ENV; the zygote puts $PYTHONPATH on sys.path as a fresh interpreter would), or
+    GLOVEREC_TEST_FRESH=1 (a fresh interpreter for every command)."""
     if args and args[0] in VIEWLESS and "--view" not in args:
         args = (args[0], "--view", "none", *args[1:])
+    timeout = kw.pop("timeout", 60)
+    env = kw.get("env") or dict(os.environ)
+    changed = {k for k in env.keys() | os.environ.keys() if env.get(k) != os.environ.get(k)}
+    if _zygote is not None and set(kw) <= {"env"} and changed <= PER_CALL_ENV:
+        return _zygote.run(list(args), env, timeout)
     return subprocess.run(
-        [sys.executable, "-m", "recorder.cli", *args],
-        capture_output=True,
-        text=True,
-        timeout=kw.pop("timeout", 60),
-        **kw,
+        [sys.executable, "-m", "recorder.cli", *args], capture_output=True, text=True, timeout=timeout, **kw
     )
+
+
+PER_CALL_ENV = {CALIBRATION_ENV, HUB_ENV, CACHE_ENV, PLUGINS_ENV, "PYTHONPATH"}
+
+
+class Zygote:
+    """tests/zygote.py, started once per xdist worker: ``run(argv, env, timeout)`` is subprocess.run's answer for
+    `gloverec ARGV` (captured text output, the exit code; on timeout the command is killed and TimeoutExpired
+    raised)."""
+
+    def __init__(self, folder: Path):
+        from zygote import SHIM
+
+        self.path = str(folder / "zygote.sock")
+        self.proc = subprocess.Popen([sys.executable, str(REPO / "tests" / "zygote.py"), self.path],
+                                     stdout=subprocess.PIPE, text=True)  # fmt: skip
+        line = self.proc.stdout.readline()
+        if line.strip() != "ready":
+            self.proc.kill()
+            raise RuntimeError(f"the test zygote did not start: {line!r}")
+        self.bin = folder / "bin"  # its `gloverec`, first on the docs runner's PATH
+        self.bin.mkdir()
+        (self.bin / "gloverec").write_text(SHIM.format(python=sys.executable))
+        (self.bin / "gloverec").chmod(0o755)
+
+    def run(self, argv: list[str], env: dict, timeout: float) -> subprocess.CompletedProcess:
+        import selectors
+        import socket
+
+        out_r, out_w = os.pipe()
+        err_r, err_w = os.pipe()
+        stdin = os.open(os.devnull, os.O_RDONLY)
+        conn = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        try:
+            conn.connect(self.path)
+            request = json.dumps({"argv": argv, "env": env, "cwd": os.getcwd()}).encode() + b"\n"
+            socket.send_fds(conn, [request], [stdin, out_w, err_w])
+        finally:
+            for fd in (stdin, out_w, err_w):
+                os.close(fd)
+        reply, chunks = b"", {out_r: [], err_r: []}
+        end = time.monotonic() + timeout
+        sel = selectors.DefaultSelector()
+        for fd in (out_r, err_r, conn.fileno()):
+            sel.register(fd, selectors.EVENT_READ)
+        pid = code = None
+        try:
+            while code is None or out_r in sel.get_map() or err_r in sel.get_map():
+                left = end - time.monotonic()
+                if left <= 0:
+                    if pid is not None:
+                        os.kill(pid, signal.SIGKILL)
+                    raise subprocess.TimeoutExpired(["gloverec", *argv], timeout)
+                for key, _ in sel.select(min(left, 1.0)):
+                    data = os.read(key.fd, 65536)
+                    if key.fd == conn.fileno():
+                        reply += data
+                        if not data:
+                            sel.unregister(key.fd)
+                            code = 1 if code is None else code
+                    elif data:
+                        chunks[key.fd].append(data)
+                    else:
+                        sel.unregister(key.fd)
+                for line in reply.decode().splitlines():
+                    kind, _, value = line.partition(" ")
+                    pid = int(value) if kind == "pid" else pid
+                    code = int(value) if kind == "exit" else code
+        finally:
+            sel.close()
+            conn.close()
+            os.close(out_r)
+            os.close(err_r)
+        text = [b"".join(chunks[fd]).decode(errors="replace") for fd in (out_r, err_r)]
+        return subprocess.CompletedProcess(["gloverec", *argv], code, text[0], text[1])
+
+    def close(self) -> None:
+        self.proc.kill()
+        self.proc.wait(10)
+
+
+_zygote: Zygote | None = None
+
+
+@pytest.fixture(scope="session", autouse=True)
+def zygote(tmp_path_factory):
+    """This worker's zygote, for ``gloverec``."""
+    global _zygote
+    if os.environ.get("GLOVEREC_TEST_FRESH") == "1":
+        yield None
+        return
+    _zygote = Zygote(tmp_path_factory.mktemp("zygote"))
+    os.environ["GLOVEREC_TEST_ZYGOTE_SOCKET"] = _zygote.path
+    os.environ["GLOVEREC_TEST_BIN"] = str(_zygote.bin)
+    yield _zygote
+    for name in ("GLOVEREC_TEST_ZYGOTE_SOCKET", "GLOVEREC_TEST_BIN"):
+        os.environ.pop(name, None)
+    _zygote.close()
+    _zygote = None
 
 
 class EmulatorProcess:

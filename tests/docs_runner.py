@@ -98,6 +98,8 @@ def run_block(doc: Path, index: int, work: Path) -> Block:
     (the modules and configs it uses); a failure, or a traceback, is an AssertionError with the output."""
     env = {**os.environ, "HF_HUB_OFFLINE": "1", "MUJOCO_GL": "egl", "PYTHONPATH": str(work)}
     env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"  # gloverec, lerobot-*, python
+    if env.get("GLOVEREC_TEST_BIN"):  # the zygote's `gloverec` (tests/zygote.py): the same command, imports paid once
+        env["PATH"] = f"{env['GLOVEREC_TEST_BIN']}{os.pathsep}{env['PATH']}"
     b = run_blocks_of(doc)[index]
     for w in blocks(doc):
         if w.line < b.line and w.kind and w.kind.startswith("write="):

@@ -18,8 +18,10 @@ substitutions, so a user's command and the tested one stay the same:
 - fewer and shorter: --episodes and --dataset.num_episodes at most 2, --steps at most 50, --duration at most 2 s,
   lerobot-record's --dataset.episode_time_s at most 3 s and --dataset.reset_time_s at most 1 s,
   lerobot-teleoperate's --teleop_time_s at most 2 s.
-A command that fails, or prints a traceback (but the one LeRobot prints on purpose when it finds no display), fails
-the test with its output.
+Each `gloverec` command runs through the test zygote's `gloverec` (tests/zygote.py: the same command in a process of
+its own, forked from one that has done the imports); lerobot-* and every other command start as they would for a
+user. A command that fails, or prints a traceback (but the one LeRobot prints on purpose when it finds no
+display), fails the test with its output.
 """
 
 from __future__ import annotations

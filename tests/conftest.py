@@ -53,6 +53,7 @@ class Zygote:
         from zygote import SHIM
 
         self.path = str(folder / "zygote.sock")
+        self.started: list[str] = []
         self.proc = subprocess.Popen([sys.executable, str(REPO / "tests" / "zygote.py"), self.path],
                                      stdout=subprocess.PIPE, text=True)  # fmt: skip
         line = self.proc.stdout.readline()
@@ -67,6 +68,8 @@ class Zygote:
     def run(self, argv: list[str], env: dict, timeout: float) -> subprocess.CompletedProcess:
         import selectors
         import socket
+
+        self.started.append(" ".join(["gloverec", *argv]))  # what pytest_runtest_call checks, as for Popen
 
         out_r, out_w = os.pipe()
         err_r, err_w = os.pipe()
@@ -124,10 +127,11 @@ _zygote: Zygote | None = None
 
 
 @pytest.fixture(scope="session", autouse=True)
-def zygote(tmp_path_factory):
-    """This worker's zygote, for ``gloverec``."""
+def zygote(request, tmp_path_factory):
+    """This worker's zygote, for ``gloverec``, when the run has a test that starts processes (not in `make check`)."""
     global _zygote
-    if os.environ.get("GLOVEREC_TEST_FRESH") == "1":
+    wanted = any(item.get_closest_marker("process") for item in request.session.items)
+    if os.environ.get("GLOVEREC_TEST_FRESH") == "1" or not wanted:
         yield None
         return
     _zygote = Zygote(tmp_path_factory.mktemp("zygote"))
@@ -338,9 +342,12 @@ def pytest_runtest_call(item):
         original(self, args, *rest, **kw)
 
     subprocess.Popen.__init__ = watch
+    forked = len(_zygote.started) if _zygote is not None else 0
     try:
         yield
     finally:
         subprocess.Popen.__init__ = original
+    if _zygote is not None:
+        started += _zygote.started[forked:]
     if started:
         pytest.fail(f"{item.nodeid} starts a child process ({started[0][:120]}): mark it @pytest.mark.process")

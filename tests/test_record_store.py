@@ -1,8 +1,5 @@
 """Crash safety of the episode store: SIGKILL at many moments never costs a saved episode."""
 
-import json
-import subprocess
-import sys
 import time
 
 import numpy as np
@@ -18,20 +15,20 @@ FEATURES = {
     "action": {"dtype": "float32", "shape": (3,), "names": ["a", "b", "c"]},
 }
 
-WRITER = """
-import sys, numpy as np
-from recorder.record.store import EpisodeStore
-features = {k: {**v, "shape": tuple(v["shape"])} for k, v in __import__("json").loads(sys.argv[2]).items()}
-store = EpisodeStore(sys.argv[1], "test/crash", 30, features, "glovehand", resume=True)
-e = store.num_episodes
-while True:
-    for i in range(40):
-        store.add_frame({"observation.state": np.full(3, e * 1000 + i, np.float32),
-                         "action": np.full(3, e, np.float32), "task": f"task {e % 3}"})
-    store.save_episode({"marker": e})
-    print("saved", e, flush=True)
-    e += 1
-"""
+
+def _write_until_killed(root: str, log: str) -> None:
+    """The store writing 40-frame episodes until it is killed; each saved episode is a line in ``log``."""
+    store = EpisodeStore(root, "test/crash", 30, FEATURES, "glovehand", resume=True)
+    e = store.num_episodes
+    with open(log, "a") as f:
+        while True:
+            for i in range(40):
+                store.add_frame({"observation.state": np.full(3, e * 1000 + i, np.float32),
+                                 "action": np.full(3, e, np.float32), "task": f"task {e % 3}"})  # fmt: skip
+            store.save_episode({"marker": e})
+            f.write(f"saved {e}\n")
+            f.flush()
+            e += 1
 
 
 def check_dataset(root, min_episodes):
@@ -51,23 +48,27 @@ def check_dataset(root, min_episodes):
 @pytest.mark.process
 @pytest.mark.timeout(240)
 def test_sigkill_at_many_moments_keeps_every_saved_episode(tmp_path):
+    """Each writer is a process of its own, killed with SIGKILL; they are forked by a forkserver that has imported
+    the store once (a fresh interpreter per writer spent most of this test importing LeRobot)."""
+    import multiprocessing
+
+    from conftest import wait_for
+
+    ctx = multiprocessing.get_context("forkserver")
+    ctx.set_forkserver_preload(["recorder.record.store"])
     root = tmp_path / "ds"
-    feats = json.dumps({k: {**v, "shape": list(v["shape"])} for k, v in FEATURES.items()})
     saved = 0
     rng = np.random.default_rng(7)
-    for delay in rng.uniform(0.0, 1.0, 5):  # after the writer's first save: any moment of the next ones
-        proc = subprocess.Popen(
-            [sys.executable, "-c", WRITER, str(root), feats],
-            stdout=subprocess.PIPE,
-            stderr=subprocess.DEVNULL,
-            text=True,
-        )
-        first = proc.stdout.readline()  # blocks until an episode is saved (startup time varies with load)
-        assert first.startswith("saved"), first
+    for k, delay in enumerate(rng.uniform(0.0, 1.0, 5)):  # after the writer's first save: any moment of the next ones
+        log = tmp_path / f"writer{k}.log"
+        log.touch()
+        proc = ctx.Process(target=_write_until_killed, args=(str(root), str(log)))
+        proc.start()
+        assert wait_for(lambda: "saved" in log.read_text(), 120), "the writer saved no episode"  # noqa: B023
         time.sleep(delay)
         proc.kill()
-        out, _ = proc.communicate()
-        lines = [ln for ln in (first + out).splitlines() if ln.startswith("saved")]
+        proc.join(30)
+        lines = [ln for ln in log.read_text().splitlines() if ln.startswith("saved ")]
         saved = int(lines[-1].split()[1]) + 1
         assert check_dataset(root, saved) >= saved  # plain lerobot, no repair step in between
     assert saved >= 5

@@ -114,13 +114,14 @@ def from_two_vectors(u, v) -> np.ndarray:
     u = u / np.linalg.norm(u, axis=-1, keepdims=True)
     v = v / np.linalg.norm(v, axis=-1, keepdims=True)
     u, v = np.broadcast_arrays(u, v)
-    d = np.sum(u * v, axis=-1, keepdims=True)
+    # 1 + u.v as |u + v|^2 / 2: no cancellation when u and v are nearly opposite (1 + u.v lost the angle there)
+    w = 0.5 * np.sum((u + v) ** 2, axis=-1, keepdims=True)
     axis = np.cross(u, v)
-    # opposite vectors: half turn about any axis perpendicular to u
+    # exactly opposite vectors: half turn about any axis perpendicular to u
     other = np.where(np.abs(u[..., :1]) < 0.9, np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]))
     perp = np.cross(u, other)
-    opposite = d < -1.0 + 1e-9
-    q = np.where(opposite, np.concatenate((np.zeros_like(d), perp), axis=-1), np.concatenate((1.0 + d, axis), axis=-1))
+    opposite = w + np.linalg.norm(axis, axis=-1, keepdims=True) < 1e-15
+    q = np.where(opposite, np.concatenate((np.zeros_like(w), perp), axis=-1), np.concatenate((w, axis), axis=-1))
     return normalize(q)
 
 

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import example, given, settings, strategies as st
 from hypothesis.extra.numpy import arrays
 
 from recorder import quat
@@ -96,6 +96,8 @@ def test_slerp_takes_the_short_way():
 
 @settings(max_examples=60, deadline=None)
 @given(vec3, vec3)
+@example(np.array([2.0, 2**-14, 2**-14]), np.array([-1.0, 0.0, 0.0]))  # nearly opposite: 1 + u.v cancelled to 1e-9
+@example(np.array([0.0, 0.0, 1.0]), np.array([0.0, 0.0, -1.0]))  # exactly opposite
 def test_from_two_vectors(u, v):
     if np.linalg.norm(u) < 1e-3 or np.linalg.norm(v) < 1e-3:
         return

@@ -112,12 +112,31 @@ def test_gloverec_wrist_reports_a_tracker_s_poses():
     stop.set()
     assert r.returncode == 0, r.stderr
     out = json.loads(r.stdout.strip().splitlines()[-1])
-    assert out["poses"] > 80 and 80 < out["rate_hz"] < 120, out
+    # what arrived, whatever the machine's load (the rate and latency a loaded machine gives are
+    # bench/wrist_latency.py's to measure; the rate's arithmetic: the next test)
+    assert out["poses"] > 10 and out["rate_hz"] > 0, out
     assert out["rejected"] == 1 and out["late"] == 1 and out["lost"] == 0, out
     assert 0.85 <= out["tracked_fraction"] <= 0.95  # every 10th pose untracked
-    assert out["latency_ms_p50"] is not None and 0 <= out["latency_ms_p50"] < 50
+    assert out["latency_ms_p50"] is not None and 0 <= out["latency_ms_p50"]
     p = np.array(out["position_m"])
     assert 0.19 <= p[0] <= 0.41 and abs(p[2] - 0.9) < 1e-4
+
+
+def test_the_wrist_monitor_s_rate_tracked_share_and_latency():
+    """WristMonitor's report from poses that arrive 100 per second, 5 ms after they were taken, every 4th
+    untracked, one missing from the seq numbers."""
+    from recorder.wrist.monitor import WristMonitor
+
+    class Source:
+        name, late, bad, last_error, finished = "test", 0, 0, None, True
+
+    monitor = WristMonitor(Source())
+    for k in [*range(50), *range(51, 101)]:
+        pose = WristPose(k, k / 100, np.array([0.3, 0.0, 0.9]), np.array([1.0, 0, 0, 0]), tracked=k % 4 != 3)
+        monitor.consume(pose, k / 100 + 0.005)
+    out = monitor.report()
+    assert out["poses"] == 100 and out["lost"] == 1 and out["tracked_fraction"] == 0.75
+    assert out["rate_hz"] == pytest.approx(99 / 1.0) and out["latency_ms_p50"] == pytest.approx(5.0)
 
 
 @pytest.mark.parametrize(
@@ -219,7 +238,9 @@ def test_gloverec_wrist_follows_a_marker_in_a_video(tmp_path, scene):
     assert r.returncode == 0, r.stderr
     out = json.loads(r.stdout.strip().splitlines()[-1])
     assert out["poses"] == n and out["tracked_fraction"] == 1.0 and out["duration_s"] < 10  # ends with the video
-    assert 20 < out["rate_hz"] < 40  # played at the video's 30 frames/s
+    # played at the video's 30 frames/s, so never in less time than the video lasts (a loaded machine can only
+    # make it slower, and late first frames catch up in a burst: the rate itself is bench/wrist_latency.py's)
+    assert out["rate_hz"] > 0 and out["duration_s"] >= (n - 1) / 30 * 0.9
     assert np.linalg.norm(np.array(out["position_m"]) - truth_p[-1]) < 0.008
     # from reading a frame to its pose: measured (its bound is bench/wrist_latency.py's, not a timed test's: under
     # the suite's load it has reached 250 ms here)

@@ -20,6 +20,7 @@ from recorder.hub import cli as hub_cli
 from recorder.record import cli as record_cli, inspect as inspect_cli
 from recorder.review import cli as review_cli
 from recorder.view import cli as view_cli
+from recorder.wrist import open_wrist
 
 PORT_HELP = f"the glove: {SPECS}"
 
@@ -226,8 +227,7 @@ def _load_policy(path, env, task: str, robot: str, fps: float):
 
 
 def cmd_wrist(args) -> int:
-    from recorder.wrist import open_wrist  # numpy and sockets: not at start-up
-    from recorder.wrist.monitor import WristMonitor
+    from recorder.wrist.monitor import WristMonitor  # numpy: not at start-up
 
     source = open_wrist(args.source, args.camera, args.marker_mm, paced=not args.fast)
     with source:

@@ -87,7 +87,8 @@ class RecordConfig:
         "scripted",
         "where the wrist is: scripted (the task's script; a free-wrist task's demonstrator), udp:PORT (a tracker's "
         "pose stream), marker:CAMERA (a marker on the glove seen by a camera: index, video file or URL; "
-        "marker:emulated renders the emulated wearer's); a tracker puts the base position in the action",
+        "marker:emulated renders the emulated wearer's), mcap:FILE (a session log's), or a plugin's KIND:ADDRESS; "
+        "a tracker puts the base position in the action",
         metavar="SOURCE",
         check=WristConfig.parse,
     )

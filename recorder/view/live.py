@@ -59,8 +59,8 @@ def run(args) -> int:
         duration = 10.0
     size = wearer_profile(args.wearer).size()  # a missing or impossible profile: one line, before anything opens
     wrist = WristConfig.parse(args.wrist)
-    if wrist.emulated:
-        raise GloverecError("--wrist marker:emulated films `gloverec record`'s demonstrator: pass udp:PORT or "
+    if wrist.follows_wearer:
+        raise GloverecError(f"--wrist {wrist.kind} films `gloverec record`'s demonstrator: pass udp:PORT or "
                             "marker:CAMERA")  # fmt: skip
     overrides = dict(get_task(args.task).live)  # the task's endless live scene
     if wrist.kind != SCRIPTED:  # the wearer places the base; a scene lasts until "next", which zeroes the wrist again

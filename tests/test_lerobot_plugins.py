@@ -133,6 +133,17 @@ def test_a_silent_glove_gives_the_held_pose_without_waiting(tmp_path, caplog):
         emu.stop()
 
 
+def test_the_emulators_output_has_gloverecs_name_and_keeps_its_old_one(capsys):
+    """``emulator_output`` as `gloverec emulate --output` names it; ``emulator_mode``, its old name, still sets it
+    (one note on stderr); ``port`` stays LeRobot's name for the device (docs/decisions.md)."""
+    assert GloverecGlove(GloverecGloveConfig(emulator_output="raw")).glove_config.mode == "raw"
+    assert capsys.readouterr().err == ""
+    old = GloverecGloveConfig(emulator_mode="compact")
+    assert (old.emulator_output, old.emulator_mode) == ("compact", None)
+    assert GloverecGlove(old).glove_config.mode == "compact"
+    assert capsys.readouterr().err.count("emulator_mode is now emulator_output") == 1
+
+
 def test_a_missing_glove_and_a_bad_robot_are_one_line(tmp_path):
     teleop = GloverecGlove(GloverecGloveConfig(port=str(tmp_path / "nope"), robot="glovehand"))
     with pytest.raises(Exception) as exc:

@@ -29,7 +29,7 @@ def collect(source, n, timeout=5.0, kind=(PoseFrame, RawFrame)):
 
 @pytest.mark.serial  # latency bounds: another worker's load would skew them
 def test_emulated_glove_streams_pose_frames(emulator):
-    emu = emulator("--rate", "200", "--mode", "pose")
+    emu = emulator("--rate", "200", "--output", "pose")
     with SerialSource(emu.port) as src:
         frames = collect(src, 200)
         stats = src.stats()
@@ -46,7 +46,7 @@ def test_emulated_glove_streams_pose_frames(emulator):
 
 
 def test_raw_mode_carries_twelve_mpu9250(emulator):
-    emu = emulator("--rate", "200", "--mode", "raw")
+    emu = emulator("--rate", "200", "--output", "raw")
     with SerialSource(emu.port) as src:
         frames = collect(src, 50)
     assert len(frames) == 50 and all(f.data.shape == (12, 7) for f in frames)
@@ -56,7 +56,7 @@ def test_raw_mode_carries_twelve_mpu9250(emulator):
 
 
 def test_legacy_json_glove_is_detected(emulator):
-    emu = emulator("--rate", "60", "--mode", "json")
+    emu = emulator("--rate", "60", "--output", "json")
     with SerialSource(emu.port) as src:
         frames = collect(src, 20)
         assert src.stats().protocol == "json"
@@ -64,7 +64,7 @@ def test_legacy_json_glove_is_detected(emulator):
 
 
 def test_commands_switch_the_glove_mode(emulator):
-    emu = emulator("--rate", "200", "--mode", "pose")
+    emu = emulator("--rate", "200", "--output", "pose")
     with SerialSource(emu.port) as src:
         assert len(collect(src, 20)) == 20
         src.command(CommandCode.SET_MODE, Mode.RAW)
@@ -130,7 +130,7 @@ def test_a_slow_consumer_loses_the_oldest_frames_and_counts_them(emulator):
 def test_missing_port_is_a_clear_error(tmp_path):
     with pytest.raises(GloverecError, match="no such port"):
         SerialSource(str(tmp_path / "nope")).open()
-    r = cli("monitor", "--port", str(tmp_path / "nope"), "--duration", "1")
+    r = cli("monitor", "--glove", str(tmp_path / "nope"), "--duration", "1")
     assert r.returncode == 1 and r.stderr.count("\n") == 1 and "no such port" in r.stderr
 
 
@@ -154,7 +154,7 @@ def test_a_port_that_is_not_a_glove_fails_cleanly():
     t = threading.Thread(target=chatter, daemon=True)
     t.start()
     try:
-        r = cli("monitor", "--port", port, "--duration", "1.5", "--json")
+        r = cli("monitor", "--glove", port, "--duration", "1.5", "--json")
     finally:
         stop.set()
         t.join()
@@ -167,7 +167,7 @@ def test_a_port_that_is_not_a_glove_fails_cleanly():
 @pytest.mark.serial  # latency bounds: another worker's load would skew them
 def test_monitor_json_report(emulator):
     emu = emulator("--rate", "250")
-    r = gloverec("monitor", "--port", emu.port, "--duration", "2", "--json")
+    r = gloverec("monitor", "--glove", emu.port, "--duration", "2", "--json")
     assert r.returncode == 0, r.stderr
     import json
 
@@ -216,7 +216,7 @@ def test_bridge_forwards_serial_frames_to_udp(emulator):
                 "-m",
                 "recorder.cli",
                 "bridge",
-                "--port",
+                "--glove",
                 emu.port,
                 "--udp",
                 f"127.0.0.1:{port}",
@@ -261,7 +261,7 @@ def test_firmware_in_the_loop_through_the_pty(emulator):
     """The compiled glove core is the emulator's firmware: its compact frames reach the reader intact."""
     from recorder.protocol import PoseCompactFrame
 
-    emu = emulator("--firmware", "--mode", "compact", "--rate", "200", "--motion", "random")
+    emu = emulator("--firmware", "--output", "compact", "--rate", "200", "--motion", "random")
     with SerialSource(emu.port) as src:
         frames = collect(src, 300, timeout=10, kind=PoseCompactFrame)
         stats = src.stats()

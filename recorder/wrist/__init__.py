@@ -32,7 +32,7 @@ def open_wrist(spec, camera_file: str | None = None, marker_mm: float = 40.0, pa
             camera_file = saved(calibration_dir(), config.camera)
             if not camera_file.exists():
                 raise GloverecError(f"{config} needs its camera's calibration: run gloverec calibrate --camera "
-                                    f"{config.camera}, or pass --camera FILE.json")  # fmt: skip
+                                    f"{config.camera}, or pass --wrist-camera FILE.json")  # fmt: skip
         return MarkerWrist(config.camera, CameraModel.load(camera_file), MarkerSpec(size_m=marker_mm / 1000.0), paced)
     from recorder.wrist.udp import UdpWrist
 

@@ -320,7 +320,7 @@ def test_inspect_reports_episodes_and_plots(pose_dataset, tmp_path):
 def test_a_raw_glove_in_real_time_starts_its_first_episode_once_fusion_has_a_pose(emulator, tmp_path):
     """Host fusion shows its first pose after ~1 s of rest; a reset period shorter than that must not start an
     episode without a pose (which would count as a lost glove and record the episode again)."""
-    emu = emulator("--rate", "200", "--mode", "raw")
+    emu = emulator("--rate", "200", "--output", "raw")
     env = {**os.environ, "GLOVEREC_CALIBRATION_DIR": str(tmp_path / "cal")}  # none saved: uncalibrated
     r = gloverec(
         "record",
@@ -388,7 +388,7 @@ def test_a_glove_that_may_send_raw_frames_has_host_fusion_compiled_when_it_opens
     time after an install, 25 s under load), so the view and the countdown stopped and the loop's wall-clock
     check fired as soon as it ran again. The kernels are now compiled (or loaded from numba's cache) when the
     glove opens, before any frame is read. A fresh interpreter, so nothing compiled them before."""
-    emu = emulator("--rate", "200", "--mode", "raw")
+    emu = emulator("--rate", "200", "--output", "raw")
     r = subprocess.run([sys.executable, "-c", PREPARED, emu.port], capture_output=True, text=True, timeout=180)
     assert r.returncode == 0, r.stderr
     out = json.loads(r.stdout)

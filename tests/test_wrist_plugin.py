@@ -71,7 +71,7 @@ def test_a_plugin_s_source_parses_checks_its_address_and_is_listed(mocap, tmp_pa
     with pytest.raises(ConfigError, match="wrist source 'udp' is registered already"):
         config.register_wrist_source("udp")(lambda c, **o: None)
     # a source that follows the emulated wearer opens only where there is one (record, calibrate --wrist)
-    r = cli("wrist", "--source", "mocap:1", "--duration", "0.2")
+    r = cli("wrist", "--wrist", "mocap:1", "--duration", "0.2")
     assert r.returncode == 1 and "mocap:1 follows the emulated wearer" in r.stderr, r.stderr
     assert r.stderr.count("\n") == 1, r.stderr
     r = cli("record", "--view", "none", "--task", "relocate", "--glove", "udp:9", "--wrist", "mocap:1",

@@ -1,5 +1,5 @@
-"""WristConfig: where the wrist's position comes from, parsed once from the spec people type (``--wrist``,
-``--source``):
+"""WristConfig: where the wrist's position comes from, parsed once from the spec people type (``--wrist`` of
+record, view, calibrate and `gloverec wrist`):
 
     scripted                 the task scripts the hand's base (today's tasks; the default)
     udp:9100, udp:HOST:9100  6-DoF poses from any tracker, one datagram each (recorder/wrist/format.py)

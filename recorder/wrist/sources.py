@@ -39,7 +39,7 @@ def marker(config, *, camera_file=None, marker_mm: float = 40.0, paced: bool = T
         camera_file = saved(calibration_dir(), config.address)
         if not camera_file.exists():
             raise GloverecError(f"{config} needs its camera's calibration: run gloverec calibrate --camera "
-                                f"{config.address}, or pass --camera FILE.json")  # fmt: skip
+                                f"{config.address}, or pass --wrist-camera FILE.json")  # fmt: skip
     return MarkerWrist(config.address, CameraModel.load(camera_file), MarkerSpec(size_m=marker_mm / 1000.0), paced)
 
 

@@ -61,8 +61,8 @@ def run_once(data: Path, page) -> dict:
         hub = Path(tmp) / "hub"
         gloverec("push", "--repo-id", REPO_ID, "--root", str(data), "--hub", str(hub))
         t0 = time.time()
-        cmd = [sys.executable, "-m", "recorder.cli", "review", "--repo-id", REPO_ID, "--hub", str(hub), "--port", "0"]
-        proc = subprocess.Popen([*cmd, "--no-browser"], stdout=subprocess.PIPE, text=True)
+        cmd = [sys.executable, "-m", "recorder.cli", "review", "--repo-id", REPO_ID, "--hub", str(hub)]
+        proc = subprocess.Popen([*cmd, "--http-port", "0", "--no-browser"], stdout=subprocess.PIPE, text=True)
         try:
             line = proc.stdout.readline()
             url_s = time.time() - t0

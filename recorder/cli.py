@@ -12,16 +12,17 @@ import signal
 import sys
 
 from policies import cli as policies_cli
-from recorder import GloverecError, __version__
-from recorder.argtypes import positive_float, positive_int
+from recorder import GloverecError, __version__, config
+from recorder.argtypes import positive_float
 from recorder.calibrate import cli as calibrate_cli
-from recorder.glove.config import SPECS, GloveConfig
+from recorder.glove.config import GloveConfig, LinkConfig
 from recorder.hub import cli as hub_cli
 from recorder.record import cli as record_cli, inspect as inspect_cli
 from recorder.review import cli as review_cli
 from recorder.view import cli as view_cli
+from recorder.wrist import open_wrist
 
-PORT_HELP = f"the glove: {SPECS}"
+EMULATOR_FIELDS = ("rate_hz", "mode", "motion", "seed")  # `gloverec emulate`'s flags: the glove's emulator fields
 
 
 def _hostport(text: str) -> tuple[str, int]:
@@ -42,18 +43,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=_Parser)
 
     e = sub.add_parser("emulate", help="serve a synthetic glove on a pseudo-terminal")
-    e.add_argument("--rate", type=positive_float, default=200.0, help="frames per second (default 200)")
-    e.add_argument("--mode", choices=("raw", "pose", "json", "compact"), default="pose")
-    e.add_argument(
-        "--motion",
-        choices=("gestures", "random", "calibration", "calibration_pinch"),
-        default="gestures",
-        help="the emulated wearer: moves between gestures, moves at random, or (calibration) rests until "
-        "`gloverec calibrate` asks for raw frames, then performs its steps (with the pinch step: "
-        "calibration_pinch), then gestures (default gestures)",
-    )
+    config.add_arguments(e, GloveConfig, include=EMULATOR_FIELDS)
     e.add_argument("--duration", type=positive_float, help="seconds to stream (default: until killed)")
-    e.add_argument("--seed", type=int, default=0)
     e.add_argument("--link", help="also expose the port as this stable symlink (as udev does for real gloves)")
     e.add_argument(
         "--firmware",
@@ -70,20 +61,18 @@ def build_parser() -> argparse.ArgumentParser:
     e.set_defaults(func=cmd_emulate)
 
     m = sub.add_parser("monitor", help="live rate, errors and latency of a glove")
-    m.add_argument("--port", required=True, help=PORT_HELP)
-    m.add_argument("--duration", type=positive_float, help="seconds (default: until Ctrl-C)")
+    config.add_arguments(m, LinkConfig, required=("glove",))
     m.add_argument("--json", action="store_true", help="print one JSON object at the end")
-    m.add_argument("--protocol", choices=("auto", "binary", "json"), default="auto")
-    m.add_argument("--baud", type=positive_int, default=115200)
-    m.add_argument("--fast", action="store_true", help="play an mcap:FILE back as fast as it decodes")
     m.set_defaults(func=cmd_monitor)
 
     w = sub.add_parser("wrist", help="the tracked wrist pose, rate, latency and tracking, to check a tracker")
-    w.add_argument("--source", required=True, help="the wrist source: udp:PORT or udp:HOST:PORT (a tracker's "
-                   "pose stream; format: docs/wrist.md), marker:CAMERA (a device index, video file or URL), or "
-                   "mcap:FILE (a session log's tracker poses, as `gloverec record --wrist` logged them)")  # fmt: skip
-    w.add_argument("--camera", metavar="FILE.json", help="the camera's calibration, for marker:CAMERA (default: "
-                   "the one `gloverec calibrate --camera CAMERA` saved)")  # fmt: skip
+    # --wrist and --wrist-camera as record, view and calibrate name them; --source and --camera: their old names
+    config.add_option(w, "--wrist", "--source", required=True, metavar="SOURCE", help="the wrist source: udp:PORT or "
+                      "udp:HOST:PORT (a tracker's pose stream; format: docs/wrist.md), marker:CAMERA (a device index, "
+                      "video file or URL), or mcap:FILE (a session log's tracker poses, as `gloverec record --wrist` "
+                      "logged them)")  # fmt: skip
+    config.add_option(w, "--wrist-camera", "--camera", metavar="FILE.json", help="the marker camera's calibration, "
+                      "for marker:CAMERA (default: the one `gloverec calibrate --camera CAMERA` saved)")  # fmt: skip
     w.add_argument("--marker-mm", type=positive_float, default=40.0, help="the marker's side, mm (default 40)")
     w.add_argument("--duration", type=positive_float, help="seconds (default: until Ctrl-C)")
     w.add_argument("--json", action="store_true", help="print one JSON object at the end")
@@ -92,18 +81,14 @@ def build_parser() -> argparse.ArgumentParser:
     w.set_defaults(func=cmd_wrist)
 
     lg = sub.add_parser("log", help="record a glove session to an MCAP file")
-    lg.add_argument("--port", required=True, help=PORT_HELP)
+    config.add_arguments(lg, LinkConfig, include=("glove", "duration"), required=("glove",))
     lg.add_argument("--out", required=True, help="output .mcap file")
-    lg.add_argument("--duration", type=positive_float, help="seconds (default: until Ctrl-C)")
     lg.add_argument("--json", action="store_true", help="print the link statistics as JSON at the end")
-    lg.add_argument("--baud", type=positive_int, default=115200)
     lg.set_defaults(func=cmd_log)
 
     b = sub.add_parser("bridge", help="forward a serial glove's frames to UDP, one frame per datagram")
-    b.add_argument("--port", required=True, help=PORT_HELP)
+    config.add_arguments(b, LinkConfig, include=("glove", "duration"), required=("glove",))
     b.add_argument("--udp", required=True, type=_hostport, metavar="HOST:PORT")
-    b.add_argument("--duration", type=positive_float, help="seconds (default: until Ctrl-C)")
-    b.add_argument("--baud", type=positive_int, default=115200)
     b.set_defaults(func=cmd_bridge)
 
     calibrate_cli.add_parser(sub)
@@ -149,14 +134,18 @@ def cmd_emulate(args) -> int:
     from recorder.emulator.emulator import Emulator  # numpy and the synthetic IMUs: not at start-up
     from recorder.emulator.procedure import OnRequest
 
-    motion = args.motion
+    glove = config.load(GloveConfig, overrides=config.overrides(args, GloveConfig))
+    motion = glove.motion or "gestures"
+    if motion == "demonstrations":
+        raise GloverecError("--motion demonstrations is `gloverec record`'s emulated wearer (it performs the task "
+                            "being recorded): pass gestures, random, calibration or calibration_pinch")  # fmt: skip
     if motion.startswith("calibration"):  # performs the steps when `gloverec calibrate` switches it to raw
-        motion = OnRequest("gestures", args.seed, args.rate, pinch=motion == "calibration_pinch")
+        motion = OnRequest("gestures", glove.seed, glove.rate_hz, pinch=motion == "calibration_pinch")
     emu = Emulator(
-        args.rate,
-        args.mode,
+        glove.rate_hz,
+        glove.mode,
         motion,
-        args.seed,
+        glove.seed,
         link=args.link,
         keep_truth=bool(args.truth),
         firmware=args.firmware,
@@ -183,11 +172,11 @@ def cmd_emulate(args) -> int:
     return 0
 
 
-def _finish(monitor, args, what: str) -> int:
+def _finish(monitor, args, duration: float | None, what: str) -> int:
     report = monitor.report()
     if args.json:
         print(json.dumps(report), flush=True)
-    if monitor.samples == 0 and (args.duration is not None or monitor.source.finished):
+    if monitor.samples == 0 and (duration is not None or monitor.source.finished):
         raise GloverecError(
             f"no glove frames from {monitor.source.name} in {report['duration_s']:.1f} s "
             f"({report['bytes']} bytes, {report['errors']} rejected): is it a glove?"
@@ -209,13 +198,14 @@ def _finish(monitor, args, what: str) -> int:
 def cmd_monitor(args) -> int:
     from recorder.monitor import LinkMonitor  # numpy and the link: not at start-up
 
-    with _glove(args) as glove:
+    link = _link(args)
+    with _glove(link) as glove:
         monitor = LinkMonitor(glove.source)
         try:
-            monitor.run(args.duration, live=not args.json and sys.stderr.isatty())
+            monitor.run(link.duration, live=not args.json and sys.stderr.isatty())
         except KeyboardInterrupt:
             pass
-    return _finish(monitor, args, "link")
+    return _finish(monitor, args, link.duration, "link")
 
 
 def _load_policy(path, env, task: str, robot: str, fps: float):
@@ -226,10 +216,9 @@ def _load_policy(path, env, task: str, robot: str, fps: float):
 
 
 def cmd_wrist(args) -> int:
-    from recorder.wrist import open_wrist  # numpy and sockets: not at start-up
-    from recorder.wrist.monitor import WristMonitor
+    from recorder.wrist.monitor import WristMonitor  # numpy: not at start-up
 
-    source = open_wrist(args.source, args.camera, args.marker_mm, paced=not args.fast)
+    source = open_wrist(args.wrist, args.wrist_camera, args.marker_mm, paced=not args.fast)
     with source:
         monitor = WristMonitor(source)
         try:
@@ -249,20 +238,24 @@ def cmd_wrist(args) -> int:
     return 0
 
 
-def _glove(args):
-    """The glove --port names (the emulator too), with --protocol and --baud; logs play back in real time
+def _link(args) -> LinkConfig:
+    return config.load(LinkConfig, overrides=config.overrides(args, LinkConfig))
+
+
+def _glove(link: LinkConfig):
+    """The glove --glove names (the emulator too), with --protocol and --baud; logs play back in real time
     unless --fast. Its frames are what these commands take: no fusion."""
     from recorder.glove.glove import make_glove  # fusion and the emulator: not at start-up
 
-    config = GloveConfig.parse(args.port, protocol=getattr(args, "protocol", "auto"), baudrate=args.baud)
-    return make_glove(config, fast=getattr(args, "fast", False), warm_fusion=False)
+    return make_glove(link.glove, fast=link.fast, warm_fusion=False)
 
 
 def cmd_log(args) -> int:
     from recorder.log.writer import McapLogger  # mcap, numpy and the link: not at start-up
     from recorder.monitor import LinkMonitor
 
-    glove = _glove(args)
+    link = _link(args)
+    glove = _glove(link)
     source = glove.source
     try:
         logger = McapLogger(args.out, {"source": str(glove.config)})
@@ -273,14 +266,14 @@ def cmd_log(args) -> int:
         with glove:
             monitor = LinkMonitor(source)
             try:
-                monitor.run(args.duration, live=not args.json and sys.stderr.isatty())
+                monitor.run(link.duration, live=not args.json and sys.stderr.isatty())
             except KeyboardInterrupt:
                 pass
         for frame in source.drain():  # the reader has stopped: count what it logged after the monitor stopped
             monitor.consume(frame)
     finally:
         logger.close()
-    return _finish(monitor, args, f"logged to {args.out}")
+    return _finish(monitor, args, link.duration, f"logged to {args.out}")
 
 
 def cmd_bridge(args) -> int:
@@ -288,12 +281,13 @@ def cmd_bridge(args) -> int:
     from recorder.monitor import LinkMonitor
 
     host, port = args.udp
-    glove = _glove(args)
+    link = _link(args)
+    glove = _glove(link)
     bridge = Bridge(glove.source, host, port)
     with glove:
         monitor = LinkMonitor(glove.source)
         try:
-            monitor.run(args.duration, live=sys.stderr.isatty(), tick=bridge.forward_commands)
+            monitor.run(link.duration, live=sys.stderr.isatty(), tick=bridge.forward_commands)
         except KeyboardInterrupt:
             pass
     print(f"bridged {bridge.datagrams} datagrams to udp:{host}:{port} ({bridge.send_errors} send errors)")

@@ -7,9 +7,10 @@ help and their defaults, so they cannot drift from the dataclass.
 A field's metadata (``setting(default, help, ...)``) says how it appears on the command line: ``flag`` (another
 name than --field-name; a bool field's flag sets it True, or False when the flag starts with --no-),
 ``sets`` (the value a bool's flag sets, when its name does not say), ``negation`` (a second flag that sets a
-bool False, exclusive with the first), ``check`` (a function that raises ValueError for a bad value: argparse
-reports it), ``cli=False`` (YAML only),
-``flags`` (for a nested dataclass field: {nested field: flag}). Ranges and choices live in the type hints:
+bool False, exclusive with the first), ``aliases`` (the flag's old names, still taken for a release: hidden
+from --help, each use notes the new name on stderr; see ``add_option``), ``check`` (a function that raises
+ValueError for a bad value: argparse reports it), ``cli=False`` (YAML only), ``flags`` (for a nested dataclass
+field: {nested field: flag}, or {nested field: (flag, *old names)}). Ranges and choices live in the type hints:
 ``Annotated[int, Gt(0)]``, ``Literal["joint", "ik"]``. A nested dataclass may define ``decode_text(text) -> dict``
 to be given as a string (``glove: serial:/dev/ttyACM0``).
 """
@@ -19,6 +20,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import functools
+import sys
 import types
 import typing
 from pathlib import Path
@@ -190,12 +192,14 @@ def add_arguments(parser: argparse.ArgumentParser, cls, *, include=None, require
         if include is not None and f.name not in include or not f.metadata.get("cli", True):
             continue
         dest = f"{cls.__name__}:{f.name}"
-        _add_flag(parser, f, _hints(cls)[f.name], getattr(defaults, f.name), dest, required=f.name in required)
+        aliases = tuple(f.metadata.get("aliases", ()))
+        _add_flag(parser, f, _hints(cls)[f.name], getattr(defaults, f.name), dest, None, aliases, f.name in required)
         sub = _nested(cls, f.name)
         for name, flag in f.metadata.get("flags", {}).items():
+            flag, *old = (flag,) if isinstance(flag, str) else flag
             nf = next(x for x in dataclasses.fields(sub) if x.name == name)
             nested_default = getattr(getattr(defaults, f.name), name)
-            _add_flag(parser, nf, _hints(sub)[name], nested_default, f"{dest}.{name}", flag=flag)
+            _add_flag(parser, nf, _hints(sub)[name], nested_default, f"{dest}.{name}", flag, tuple(old))
 
 
 def overrides(args: argparse.Namespace, cls) -> dict:
@@ -204,8 +208,45 @@ def overrides(args: argparse.Namespace, cls) -> dict:
     return {k[len(prefix) :]: v for k, v in vars(args).items() if k.startswith(prefix) and v is not None}
 
 
+def add_option(parser, flag: str, *aliases: str, required: bool = False, **kw) -> argparse.Action:
+    """``parser.add_argument(flag, **kw)``, and ``aliases``: the flag's old names, still taken for a release. An
+    old name does what the flag does, after a one-line note on stderr (stdout is left alone: a --json command's
+    output stays one JSON object); --help and usage errors show only the new name. The one way a renamed flag
+    is kept, for generated flags and hand-written ones alike (docs/decisions.md, "One idea, one flag name")."""
+    if not aliases:
+        return parser.add_argument(flag, required=required, **kw)
+    # required: one of the names must be given, so argparse's own check sees the flag under an old name too
+    target = parser.add_mutually_exclusive_group(required=True) if required else parser
+    action = target.add_argument(flag, **kw)
+    for old in aliases:
+        target.add_argument(old, action=_Renamed, dest=action.dest, renamed=action, help=argparse.SUPPRESS)
+    return action
+
+
+class _Renamed(argparse.Action):
+    """An old name of a flag (``add_option``): parses and stores as the flag does, and says the new name."""
+
+    def __init__(self, option_strings, dest, renamed: argparse.Action, help=None, **_):
+        super().__init__(option_strings, dest, nargs=renamed.nargs, const=renamed.const, default=argparse.SUPPRESS,
+                         type=renamed.type, choices=renamed.choices, help=help, metavar=renamed.metavar)  # fmt: skip
+        self.renamed = renamed
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        new = self.renamed.option_strings[0]
+        print(f"{parser.prog}: note: {option_string} is now {new}; {option_string} goes in a later release",
+              file=sys.stderr)  # fmt: skip
+        self.renamed(parser, namespace, values, new)
+
+
 def _add_flag(
-    parser, f: dataclasses.Field, hint, default, dest: str, flag: str | None = None, required: bool = False
+    parser,
+    f: dataclasses.Field,
+    hint,
+    default,
+    dest: str,
+    flag: str | None = None,
+    aliases: tuple[str, ...] = (),
+    required: bool = False,
 ) -> None:
     flag = flag or f.metadata.get("flag") or "--" + f.name.replace("_", "-")
     help_ = f.metadata.get("help", "")
@@ -214,20 +255,17 @@ def _add_flag(
         negation = f.metadata.get("negation")
         if negation:
             group = parser.add_mutually_exclusive_group()
-            group.add_argument(flag, dest=dest, action="store_true", default=None, help=help_)
+            add_option(group, flag, *aliases, dest=dest, action="store_true", default=None, help=help_)
             group.add_argument(negation, dest=dest, action="store_false", help=f.metadata.get("negation_help"))
         elif f.metadata.get("flag"):
             sets = f.metadata.get("sets", not flag.startswith("--no-"))
             action = "store_true" if sets else "store_false"
-            parser.add_argument(flag, dest=dest, action=action, default=None, help=help_)
+            add_option(parser, flag, *aliases, dest=dest, action=action, default=None, help=help_)
         else:
-            parser.add_argument(
-                flag, dest=dest, action=argparse.BooleanOptionalAction, default=None, help=_with_default(help_, default)
-            )
+            add_option(parser, flag, *aliases, dest=dest, action=argparse.BooleanOptionalAction, default=None,
+                       help=_with_default(help_, default))  # fmt: skip
         return
     kw: dict = {"dest": dest, "default": None, "help": help_ if required else _with_default(help_, default)}
-    if required:
-        kw["required"] = True
     if typing.get_origin(base) is Literal:
         kw["choices"] = typing.get_args(base)
     elif typing.get_origin(base) is tuple:
@@ -241,7 +279,7 @@ def _add_flag(
         kw["metavar"] = f.metadata["metavar"]
     elif "choices" not in kw and "metavar" not in kw:
         kw["metavar"] = dest.rsplit(".", 1)[-1].rsplit(":", 1)[-1].upper()
-    parser.add_argument(flag, **kw)
+    add_option(parser, flag, *aliases, required=required, **kw)
 
 
 def _with_default(help_: str, default) -> str:

@@ -36,14 +36,14 @@ def link_check() -> Path:
     log = OUT / "link.mcap"
     print("[1/5] The glove link: 12 synthetic MPU9250s behind a pseudo-terminal, 200 Hz raw frames, logged 5 s")
     emu = subprocess.Popen(
-        [sys.executable, "-m", "recorder.cli", "emulate", "--mode", "raw", "--rate", "200", "--duration", "30"],
+        [sys.executable, "-m", "recorder.cli", "emulate", "--output", "raw", "--rate", "200", "--duration", "30"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
     )
     port = emu.stdout.readline().split(": ", 1)[-1].strip()
     try:
-        rep = gloverec("log", "--port", port, "--out", str(log), "--duration", "5", "--json")
+        rep = gloverec("log", "--glove", port, "--out", str(log), "--duration", "5", "--json")
     finally:
         emu.terminate()
         emu.communicate(timeout=10)

@@ -1,6 +1,7 @@
 """Code from outside the package that registers with gloverec's registries (tasks: envs/tasks/registry.py,
-fusion filters: recorder/fusion/registry.py, glove sources: recorder/glove/config.py), loaded once, the first time
-a registry is asked for a name. Two ways, so that a command in a child process finds it too:
+fusion filters: recorder/fusion/registry.py, glove sources: recorder/glove/config.py, wrist sources:
+recorder/wrist/config.py), loaded once, the first time a registry is asked for a name. Two ways, so that a
+command in a child process finds it too:
 
 - the environment variable ``GLOVEREC_PLUGINS``: modules to import, comma-separated (``my_lab.tasks,my_lab.imu``;
   on ``PYTHONPATH`` or installed), for a module you are writing;
@@ -8,8 +9,8 @@ a registry is asked for a name. Two ways, so that a command in a child process f
   ``[project.entry-points."gloverec.plugins"] my_tasks = "my_lab.tasks"``), for one you ship.
 
 A plugin module registers by importing and calling the registries' decorators (docs/envs.md "Adding a task",
-docs/fusion.md "Adding a filter", docs/recording.md "Adding a glove source"). A module that does not import, or
-fails while importing, is a one-line error naming it.
+docs/fusion.md "Adding a filter", docs/recording.md "Adding a glove source", docs/wrist.md "Adding a wrist
+source"). A module that does not import, or fails while importing, is a one-line error naming it.
 """
 
 from __future__ import annotations

@@ -18,6 +18,10 @@ FW_BUILD = REPO / "build" / "firmware"  # `make firmware`'s host build: make tes
 
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
 os.environ.setdefault("MUJOCO_GL", "egl")
+# Sealed from the checkout's and the user's data: the hub, calibrations and plugins come from where a test says,
+# never from the environment the suite was started in (see `sealed` below for datasets/ under the directory).
+for _name in (HUB_ENV, CALIBRATION_ENV, PLUGINS_ENV):
+    os.environ.pop(_name, None)
 
 
 VIEWLESS = ("record", "calibrate")  # recorded without a live view here (`--view none`): CI has no display
@@ -124,6 +128,20 @@ class Zygote:
 
 
 _zygote: Zygote | None = None
+
+
+@pytest.fixture(scope="session", autouse=True)
+def sealed_worker(tmp_path_factory):
+    """Every test process works in a folder of its own, so that no command reads or writes the checkout's
+    `datasets/` (its hub, recordings and calibrations: a wrist mounting a user saved there once changed what a
+    test's command printed). Session fixtures that run commands (shared recordings) run here too."""
+    os.chdir(tmp_path_factory.mktemp("cwd"))
+
+
+@pytest.fixture(autouse=True)
+def sealed(tmp_path_factory, monkeypatch):
+    """Each test's commands run in an empty working directory of the test's own (`datasets/` under it)."""
+    monkeypatch.chdir(tmp_path_factory.mktemp("cwd"))
 
 
 @pytest.fixture(scope="session", autouse=True)

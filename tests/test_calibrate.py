@@ -52,7 +52,7 @@ def recordings(calibrated, tmp_path_factory):
     folder, _ = calibrated
     base = tmp_path_factory.mktemp("rec")
     common = ("--episodes", "2", "--seed", "5", "--repo-id", "test/cal")
-    raw = run_json("record", "--glove-mode", "raw", "--root", str(base / "raw"), *common, env=with_dir(folder))
+    raw = run_json("record", "--glove-output", "raw", "--root", str(base / "raw"), *common, env=with_dir(folder))
     run_json("record", "--root", str(base / "pose"), *common, env=with_dir(folder))
     return {"raw": base / "raw", "pose": base / "pose", "raw_log": base / "raw" / raw["log"], "base": base}
 
@@ -106,7 +106,7 @@ def test_a_moving_hand_is_refused(emulator, tmp_path):
     set-mode command; its wearer never stops moving, so step 1 is refused, repeated and finally given up, and
     the glove is put back in pose mode (it used to stay in raw mode, so every later recording fused on the
     host without a word)."""
-    emu = emulator("--rate", "200", "--mode", "pose", "--motion", "gestures")
+    emu = emulator("--rate", "200", "--output", "pose", "--motion", "gestures")
     r = gloverec(
         "calibrate",
         "--glove",
@@ -129,7 +129,7 @@ def test_a_standalone_emulator_performs_the_steps_when_calibrate_asks(emulator, 
     """`gloverec emulate --motion calibration` (docs/recording.md): its wearer rests until calibrate switches it
     to raw frames, then performs the steps: step 1 passes at the first attempt, and the glove ends in the mode it
     started in. (A second calibration restarts the steps from a gesturing hand: the next test, on the motion.)"""
-    emu = emulator("--rate", "200", "--mode", "compact", "--motion", "calibration")
+    emu = emulator("--rate", "200", "--output", "compact", "--motion", "calibration")
     r = gloverec("calibrate", "--glove", emu.port, "--yes", "--dir", str(tmp_path), "--json", stdin=open(os.devnull))
     assert r.returncode == 0, r.stderr
     summary = json.loads(r.stdout)
@@ -190,7 +190,7 @@ def test_bad_gloves_and_files_are_one_line_errors(tmp_path):
         load_fusion(GLOVE_ID, tmp_path)
     # the recorder forks its writer before the glove (and its calibration) opens: as a user runs it, a child
     r = gloverec(
-        "record", "--glove-mode", "raw", "--episodes", "1", "--root", str(tmp_path / "ds"), env=with_dir(tmp_path)
+        "record", "--glove-output", "raw", "--episodes", "1", "--root", str(tmp_path / "ds"), env=with_dir(tmp_path)
     )
     assert r.returncode == 1 and "bad calibration file" in r.stderr and r.stderr.count("\n") == 1, r.stderr
 
@@ -223,7 +223,7 @@ def test_a_serial_glove_in_raw_mode_is_fused_with_the_calibration_of_its_id(cali
     """A glove on a port: its id comes with its status frames, after the log has opened, so the record reaches
     calibration.json and the log (a second session metadata record) once the frames come."""
     folder, _ = calibrated
-    emu = emulator("--rate", "200", "--mode", "raw", "--motion", "gestures")
+    emu = emulator("--rate", "200", "--output", "raw", "--motion", "gestures")
     root = tmp_path / "ds"
     summary = run_json(
         "record",

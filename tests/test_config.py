@@ -11,7 +11,7 @@ from policies.config import TrainConfig
 from recorder import config
 from recorder.config import ConfigError
 from recorder.glove import config as glove
-from recorder.glove.config import GloveConfig
+from recorder.glove.config import GloveConfig, LinkConfig
 from recorder.paths import calibration_dir, config_file, hub_dir
 from recorder.record.config import RecordConfig
 
@@ -38,7 +38,7 @@ def test_todays_flags_work_as_before():
         "--no-log",
         "--glove-rate",
         "500",
-        "--glove-mode",
+        "--glove-output",
         "raw",
         "--resume",
         "--episode-time-s",
@@ -55,6 +55,27 @@ def test_todays_flags_work_as_before():
     config.add_arguments(t, TrainConfig)
     train = TrainConfig.load(None, **config.overrides(t.parse_args(["--all-episodes", "--steps", "7"]), TrainConfig))
     assert train.successful_only is False and train.steps == 7 and train.save_every == 1000
+
+
+def test_renamed_flags_still_take_their_old_names(capsys):
+    """A field's ``aliases`` (and a nested flag's old names): the old name sets the same field after a one-line
+    note on stderr (stdout is left alone); --help shows the new name only; a required flag may be given by either."""
+    p = argparse.ArgumentParser(prog="t")
+    config.add_arguments(p, LinkConfig, required=("glove",))
+    new = config.overrides(p.parse_args(["--glove", "udp:9000"]), LinkConfig)
+    assert capsys.readouterr() == ("", "")
+    old = config.overrides(p.parse_args(["--port", "udp:9000", "--baud", "9600"]), LinkConfig)
+    assert new == {"glove": "udp:9000"} and old == {"glove": "udp:9000", "glove.baudrate": 9600}
+    assert capsys.readouterr() == ("", "t: note: --port is now --glove; --port goes in a later release\n")
+    assert "--port" not in p.format_help() and "--glove GLOVE" in p.format_usage()
+    with pytest.raises(SystemExit):
+        p.parse_args([])
+    assert "--glove is required" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        p.parse_args(["--glove", "udp:1", "--port", "udp:2"])  # one name or the other
+    capsys.readouterr()
+    assert _record("--glove-mode", "raw").glove == _record("--glove-output", "raw").glove == GloveConfig(mode="raw")
+    assert "--glove-mode is now --glove-output" in capsys.readouterr().err
 
 
 def test_yaml_overrides_defaults_and_flags_override_yaml(tmp_path):

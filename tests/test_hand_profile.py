@@ -155,7 +155,7 @@ def test_view_takes_a_wearer(tmp_path):
     save_profile(HandProfile("ana", 172.0, 79.0), tmp_path)
     env = {**os.environ, "GLOVEREC_CALIBRATION_DIR": str(tmp_path)}
     video = tmp_path / "ana.mp4"
-    args = ("view", "--glove", "emulator", "--robot", "shadow", "--mode", "pinch", "--video", str(video))
+    args = ("view", "--glove", "emulator", "--robot", "shadow", "--retarget", "pinch", "--video", str(video))
     r = cli(*args, "--duration", "1", "--wearer", "ana", env=env)
     assert r.returncode == 0, r.stderr[-2000:]
     assert video.stat().st_size > 0

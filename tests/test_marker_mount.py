@@ -89,7 +89,8 @@ def _open_wrist(wrist: str, said: list, **options):
     from recorder.record.recorder import Recorder
 
     cfg = RecordConfig.load(task="relocate", wrist=wrist, **options)
-    recorder = SimpleNamespace(cfg=cfg, _say=said.append, _demo_palm=None)
+    palm = lambda t: (np.zeros(3), quat.IDENTITY.copy())  # noqa: E731  (the emulated wearer's: nothing records here)
+    recorder = SimpleNamespace(cfg=cfg, _say=said.append, _demo_palm=palm)
     return Recorder._open_wrist(recorder)
 
 

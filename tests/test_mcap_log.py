@@ -313,7 +313,6 @@ def test_fast_playback_is_lossless_and_faithful(log):
     same_frames(frames, src.frames)
 
 
-@pytest.mark.serial  # timed
 def test_realtime_playback_keeps_the_recorded_spacing(tmp_path):
     chunks = split(glove_bytes(200))[:120]
     path = tmp_path / "rt.mcap"
@@ -325,18 +324,17 @@ def test_realtime_playback_keeps_the_recorded_spacing(tmp_path):
             assert f.rx_ns <= time.monotonic_ns()  # delivered no earlier than its (mapped) receive time
             frames.append(f)
     elapsed = time.monotonic() - t
-    assert 0.55 < elapsed < 1.5
+    assert elapsed > 0.55  # paced: never faster than recorded (a loaded machine can only make it later)
     assert [f.rx_ns - frames[0].rx_ns for f in frames] == [f.rx_ns - src.frames[0].rx_ns for f in src.frames]
 
 
-@pytest.mark.serial  # timed
 def test_close_stops_realtime_playback_at_once(tmp_path):
-    record(tmp_path / "slow.mcap", [wire(EventFrame(i, 0, EventCode.BUTTON)) for i in range(3)], step_ns=10**9)
+    record(tmp_path / "slow.mcap", [wire(EventFrame(i, 0, EventCode.BUTTON)) for i in range(3)], step_ns=60 * 10**9)
     play = McapSource(str(tmp_path / "slow.mcap"), realtime=True).open()
-    assert play.read(timeout=1.0).seq == 0 and play.read(timeout=0.1) is None  # the next one is 1 s away
+    assert play.read(timeout=10.0).seq == 0 and play.read(timeout=0.1) is None  # the next one is a minute away
     t = time.monotonic()
     play.close()
-    assert time.monotonic() - t < 0.5 and not play._thread.is_alive()
+    assert time.monotonic() - t < 30 and not play._thread.is_alive()  # a close that waited for it: 60 s
 
 
 def test_playback_replays_host_clock_latency(tmp_path):

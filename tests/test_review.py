@@ -198,5 +198,5 @@ def test_review_refuses_bad_input_in_one_line(pose_recording, tmp_path):
         taken.bind(("127.0.0.1", 0))
         taken.listen()
         port = taken.getsockname()[1]
-        r = cli("review", "--repo-id", POSE_REPO, "--root", str(src), "--port", str(port), "--no-browser")
-    assert r.returncode == 1 and f"127.0.0.1:{port}" in r.stderr and "--port" in r.stderr, r.stderr
+        r = cli("review", "--repo-id", POSE_REPO, "--root", str(src), "--http-port", str(port), "--no-browser")
+    assert r.returncode == 1 and f"127.0.0.1:{port}" in r.stderr and "--http-port" in r.stderr, r.stderr

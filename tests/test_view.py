@@ -25,7 +25,7 @@ def test_view_of_the_emulated_glove(tmp_path):
 
 @pytest.mark.parametrize("mode", ["compact", "raw", "json"])
 def test_view_follows_compact_raw_and_legacy_gloves(emulator, tmp_path, mode):
-    emu = emulator("--mode", mode, "--rate", "100")
+    emu = emulator("--output", mode, "--rate", "100")
     video = tmp_path / f"{mode}.mp4"
     r = cli("view", "--glove", f"serial:{emu.port}", "--video", str(video), "--duration", "3")
     assert r.returncode == 0, r.stderr

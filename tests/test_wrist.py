@@ -1,5 +1,5 @@
 """The wrist from a tracker (recorder/wrist): the pose message and its binary twin, the UDP source, and
-`gloverec wrist --source udp:PORT` as docs/wrist.md shows it, against a real socket."""
+`gloverec wrist --wrist udp:PORT` as docs/wrist.md shows it, against a real socket."""
 
 import json
 import socket
@@ -108,24 +108,43 @@ def test_gloverec_wrist_reports_a_tracker_s_poses():
     stop = threading.Event()
     sender = threading.Thread(target=_tracker, args=(port, 3.0), kwargs={"stop": stop}, daemon=True)
     sender.start()
-    r = cli("wrist", "--source", f"udp:127.0.0.1:{port}", "--duration", "1.5", "--json")
+    r = cli("wrist", "--wrist", f"udp:127.0.0.1:{port}", "--duration", "1.5", "--json")
     stop.set()
     assert r.returncode == 0, r.stderr
     out = json.loads(r.stdout.strip().splitlines()[-1])
-    assert out["poses"] > 80 and 80 < out["rate_hz"] < 120, out
+    # what arrived, whatever the machine's load (the rate and latency a loaded machine gives are
+    # bench/wrist_latency.py's to measure; the rate's arithmetic: the next test)
+    assert out["poses"] > 10 and out["rate_hz"] > 0, out
     assert out["rejected"] == 1 and out["late"] == 1 and out["lost"] == 0, out
     assert 0.85 <= out["tracked_fraction"] <= 0.95  # every 10th pose untracked
-    assert out["latency_ms_p50"] is not None and 0 <= out["latency_ms_p50"] < 50
+    assert out["latency_ms_p50"] is not None and 0 <= out["latency_ms_p50"]
     p = np.array(out["position_m"])
     assert 0.19 <= p[0] <= 0.41 and abs(p[2] - 0.9) < 1e-4
+
+
+def test_the_wrist_monitor_s_rate_tracked_share_and_latency():
+    """WristMonitor's report from poses that arrive 100 per second, 5 ms after they were taken, every 4th
+    untracked, one missing from the seq numbers."""
+    from recorder.wrist.monitor import WristMonitor
+
+    class Source:
+        name, late, bad, last_error, finished = "test", 0, 0, None, True
+
+    monitor = WristMonitor(Source())
+    for k in [*range(50), *range(51, 101)]:
+        pose = WristPose(k, k / 100, np.array([0.3, 0.0, 0.9]), np.array([1.0, 0, 0, 0]), tracked=k % 4 != 3)
+        monitor.consume(pose, k / 100 + 0.005)
+    out = monitor.report()
+    assert out["poses"] == 100 and out["lost"] == 1 and out["tracked_fraction"] == 0.75
+    assert out["rate_hz"] == pytest.approx(99 / 1.0) and out["latency_ms_p50"] == pytest.approx(5.0)
 
 
 @pytest.mark.parametrize(
     "args, says",
     [
-        (["--source", "webcam:0"], "unknown wrist source 'webcam:0'; valid: scripted, udp:PORT, udp:HOST:PORT or mar"),
-        (["--source", "udp:0"], "bad wrist source 'udp:0': the port must be 1-65535"),
-        (["--source", "scripted"], "the scripted wrist is the task's"),
+        (["--wrist", "webcam:0"], "unknown wrist source 'webcam:0'; valid: scripted, udp:PORT, udp:HOST:PORT or mar"),
+        (["--wrist", "udp:0"], "bad wrist source 'udp:0': the port must be 1-65535"),
+        (["--wrist", "scripted"], "the scripted wrist is the task's"),
     ],
 )
 def test_bad_wrist_sources_are_one_line(args, says):
@@ -143,7 +162,7 @@ def test_a_silent_tracker_is_one_line_after_the_duration():
             s.sendto(b'{"seq": 1}', ("127.0.0.1", port))
 
     threading.Thread(target=send, daemon=True).start()
-    r = cli("wrist", "--source", f"udp:127.0.0.1:{port}", "--duration", "0.6")
+    r = cli("wrist", "--wrist", f"udp:127.0.0.1:{port}", "--duration", "0.6")
     assert r.returncode == 1 and r.stderr.count("\n") == 1, r.stderr
     assert "no wrist poses from udp:127.0.0.1:" in r.stderr and "1 datagrams rejected: wrist pose without t" in r.stderr
 
@@ -202,7 +221,7 @@ def test_a_camera_calibration_file_round_trips_and_a_bad_one_is_one_line(tmp_pat
 
 
 def test_gloverec_wrist_follows_a_marker_in_a_video(tmp_path, scene):
-    """`gloverec wrist --source marker:VIDEO --camera CAM.json`: a rendered, lossless video of the marker moving
+    """`gloverec wrist --wrist marker:VIDEO --wrist-camera CAM.json`: a rendered, lossless video of the marker moving
     across the view (its truth kept) played as a camera would deliver it."""
     from recorder import quat
 
@@ -214,12 +233,14 @@ def test_gloverec_wrist_follows_a_marker_in_a_video(tmp_path, scene):
     ]
     truth_p, _ = scene.record(tmp_path / "webcam.mkv", positions, quats, fps=30)
     scene.camera.save(tmp_path / "webcam.json")
-    r = cli("wrist", "--source", f"marker:{tmp_path / 'webcam.mkv'}", "--camera", str(tmp_path / "webcam.json"),
+    r = cli("wrist", "--wrist", f"marker:{tmp_path / 'webcam.mkv'}", "--wrist-camera", str(tmp_path / "webcam.json"),
             "--duration", "20", "--json")  # fmt: skip
     assert r.returncode == 0, r.stderr
     out = json.loads(r.stdout.strip().splitlines()[-1])
     assert out["poses"] == n and out["tracked_fraction"] == 1.0 and out["duration_s"] < 10  # ends with the video
-    assert 20 < out["rate_hz"] < 40  # played at the video's 30 frames/s
+    # played at the video's 30 frames/s, so never in less time than the video lasts (a loaded machine can only
+    # make it slower, and late first frames catch up in a burst: the rate itself is bench/wrist_latency.py's)
+    assert out["rate_hz"] > 0 and out["duration_s"] >= (n - 1) / 30 * 0.9
     assert np.linalg.norm(np.array(out["position_m"]) - truth_p[-1]) < 0.008
     # from reading a frame to its pose: measured (its bound is bench/wrist_latency.py's, not a timed test's: under
     # the suite's load it has reached 250 ms here)
@@ -229,11 +250,12 @@ def test_gloverec_wrist_follows_a_marker_in_a_video(tmp_path, scene):
 def test_a_marker_source_s_bad_inputs_are_one_line(tmp_path, scene):
     scene.camera.save(tmp_path / "cam.json")
     (tmp_path / "not_a_video.mkv").write_text("hello")
+    cam = str(tmp_path / "cam.json")
     for args, says in (
-        (["--source", f"marker:{tmp_path / 'missing.mkv'}", "--camera", str(tmp_path / "cam.json")], "cannot open"),
-        (["--source", f"marker:{tmp_path / 'not_a_video.mkv'}", "--camera", str(tmp_path / "cam.json")], "cannot open"),
-        (["--source", "marker:0"], "needs its camera's calibration: run gloverec calibrate --camera 0, or pass"),
-        (["--source", "marker:0", "--camera", str(tmp_path / "none.json")], "bad camera calibration"),
+        (["--wrist", f"marker:{tmp_path / 'missing.mkv'}", "--wrist-camera", cam], "cannot open"),
+        (["--wrist", f"marker:{tmp_path / 'not_a_video.mkv'}", "--wrist-camera", cam], "cannot open"),
+        (["--wrist", "marker:0"], "run gloverec calibrate --camera 0, or pass --wrist-camera FILE.json"),
+        (["--wrist", "marker:0", "--wrist-camera", str(tmp_path / "none.json")], "bad camera calibration"),
     ):
         r = cli("wrist", *args, "--duration", "1", env={"GLOVEREC_CALIBRATION_DIR": str(tmp_path / "none")})
         assert r.returncode == 1 and says in r.stderr and r.stderr.count("\n") == 1, r.stderr

@@ -1,5 +1,5 @@
 """The wrist from a session log (issue 24, ``mcap:FILE``): `gloverec record --wrist` logs every tracker pose its
-wrist fusion takes on /wrist/pose, `gloverec wrist --source mcap:LOG` plays them back, `gloverec rerecord`
+wrist fusion takes on /wrist/pose, `gloverec wrist --wrist mcap:LOG` plays them back, `gloverec rerecord`
 re-records a free-wrist session from its log alone, and a file that is not such a log is one line."""
 
 import json
@@ -60,13 +60,13 @@ def test_the_session_log_keeps_every_pose_the_wrist_fusion_took(wrist_log):
 def test_gloverec_wrist_plays_the_log_s_poses_back(wrist_log):
     _, log = wrist_log
     _, poses = read_wrist(str(log))
-    r = cli("wrist", "--source", f"mcap:{log}", "--fast", "--json")
+    r = cli("wrist", "--wrist", f"mcap:{log}", "--fast", "--json")
     assert r.returncode == 0, r.stderr
     out = json.loads(r.stdout)
     assert out["poses"] == len(poses) and out["lost"] == 0 and abs(out["rate_hz"] - 30.0) < 0.5, out
     assert out["tracked_fraction"] == round(np.mean([p.tracked for p, _ in poses]), 4)
     assert np.allclose(out["position_m"], poses[-1][0].position, atol=1e-4)
-    r = cli("wrist", "--source", f"mcap:{log}", "--duration", "0.5", "--json")  # in real time: a part of them
+    r = cli("wrist", "--wrist", f"mcap:{log}", "--duration", "0.5", "--json")  # in real time: a part of them
     out = json.loads(r.stdout)
     assert r.returncode == 0 and 0 < out["poses"] < len(poses), out
     assert 0 <= out["latency_ms_p50"] < 60  # the recorded age: capture to the frame tick that took the pose
@@ -113,6 +113,6 @@ def test_a_file_that_is_not_a_log_with_wrist_poses_is_one_line(tmp_path, make, s
     path = tmp_path / "session.mcap"
     if make is not None:
         make(path)
-    r = cli("wrist", "--source", f"mcap:{path}", "--fast")
+    r = cli("wrist", "--wrist", f"mcap:{path}", "--fast")
     assert r.returncode == 1 and says in r.stderr and str(path) in r.stderr, r.stderr
     assert r.stderr.count("\n") == 1, r.stderr

@@ -1,4 +1,4 @@
-"""The BC policy's processors: LeRobot's own steps, as for ACT (policies/act/processor_act.py).
+"""The BC policy's processors: LeRobot's own steps, as for ACT (lerobot/policies/act/processor_act.py).
 
 Pre: rename (none) -> add the batch dimension -> device -> normalise inputs and actions with the dataset's
 statistics. Post: unnormalise actions -> CPU. Saved next to the weights as policy_preprocessor.json /

@@ -45,7 +45,7 @@ from recorder.wrist.mounting import (
     solve_mount,
     turns,
 )
-from recorder.wrist.track import EmulatedMarker, WristTrack
+from recorder.wrist.track import WristTrack
 
 DURATION_S = 15.0
 FRAME_S = 1.0 / 30.0  # the loop's step faster than real time (the emulated camera's frame period)
@@ -114,21 +114,19 @@ def calibrate_mount(glove: str, wrist: str, duration_s: float = DURATION_S, came
     emulated_wearer = glove_config.kind == EMULATOR
     if wrist_config.kind == SCRIPTED:
         raise GloverecError("--wrist scripted has no marker to calibrate: pass udp:PORT, marker:CAMERA or mcap:FILE")
-    if wrist_config.emulated and not emulated_wearer:
-        raise GloverecError("--wrist marker:emulated films the emulated wearer: calibrate with --glove emulator")
-    if wrist_config.emulated and realtime:
-        raise GloverecError("--wrist marker:emulated films the emulated wearer faster than real time: drop --realtime")
+    if wrist_config.follows_wearer and not emulated_wearer:
+        raise GloverecError(f"--wrist {wrist_config.kind} films the emulated wearer: calibrate with --glove emulator")
+    if wrist_config.follows_wearer and realtime:
+        raise GloverecError(f"--wrist {wrist_config.kind} films the emulated wearer faster than real time: drop "
+                            "--realtime")  # fmt: skip
     fast = (emulated_wearer and not realtime) or glove_config.kind == "mcap"
     options = {"fast": fast, "calibration_dir": folder, "say": lambda text: print(text, file=out, flush=True)}
     performer = Performer(glove_config, **options) if emulated_wearer else None  # it wears the emulated glove
     g = performer.glove if performer is not None else make_glove(glove_config, **options)
     try:
-        if wrist_config.emulated:
-            source = EmulatedMarker(performer.performed, mount=wrist_config.emulated_mount)
-            latency = source.camera.latency_s
-        else:
-            source = open_wrist(wrist_config, camera_file, marker_mm, paced=not fast, glove=glove_config)
-            latency = float(getattr(source, "latency_s", 0.0))  # a log's: its recording's
+        source = open_wrist(wrist_config, camera_file, marker_mm, paced=not fast, glove=glove_config,
+                            wearer=performer.performed if performer is not None else None)  # fmt: skip
+        latency = float(getattr(source, "latency_s", 0.0))  # a log's: its recording's; the emulated webcam's
         track = WristTrack(source, FusionConfig(latency_s=latency))
     except BaseException:
         g.close()
@@ -160,8 +158,8 @@ def calibrate_mount(glove: str, wrist: str, duration_s: float = DURATION_S, came
                         source=str(wrist_config), glove=str(glove_config), glove_id=g.fusion.glove_id)  # fmt: skip
     path = mount.save(mount_file(calibration_dir(folder)))
     result = {**mount.as_dict(), "path": str(path), "tracked_fraction": round(share, 4)}
-    if wrist_config.emulated:
-        true = wrist_config.emulated_mount
+    true = getattr(source, "true_mount", None)  # the emulated marker's, glued off as --wrist says
+    if true is not None:
         result["emulated_mount_deg"] = round(float(np.degrees(quat.angle_between(quat.IDENTITY, true))), 4)
         result["emulated_error_deg"] = round(float(np.degrees(quat.angle_between(true, mount.q))), 4)
     return result

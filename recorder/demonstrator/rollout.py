@@ -1,6 +1,7 @@
 """Run scripted demonstrations through retargeting into an environment and score them.
 
-    python -m recorder.demonstrator.rollout --task grasp --robot shadow --episodes 50 [--via glove] [--mode ik|pinch]
+    python -m recorder.demonstrator.rollout --task grasp --robot shadow --episodes 50 [--via glove]
+        [--retarget ik|pinch]
 
 ``via="direct"``: the demonstrator's joint angles and palm orientation go straight to the retargeter.
 ``via="glove"``: they drive a SyntheticGlove; its pose output (parent-relative quaternions with orientation
@@ -20,6 +21,7 @@ import numpy as np
 
 import envs  # noqa: F401  (registers the environments)
 from recorder import GloverecError
+from recorder.config import add_option
 from recorder.demonstrator import make_demonstrator
 from recorder.emulator.glove import SyntheticGlove
 from recorder.hand.kinematics import joint_angles_from_relative
@@ -181,7 +183,7 @@ def main(argv=None) -> None:
     p.add_argument("--robot", default="glovehand")
     p.add_argument("--episodes", type=int, default=20)
     p.add_argument("--via", choices=VIA, default="direct")
-    p.add_argument("--mode", choices=MODES, default="joint")
+    add_option(p, "--retarget", "--mode", choices=MODES, default="joint", help="retargeting mode (as record's)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--free-wrist", action="store_true", help="base_position: the wearer's wrist moves the base")
     p.add_argument("--demonstrator", choices=("scripted", "human"), default="scripted")
@@ -189,7 +191,7 @@ def main(argv=None) -> None:
     p.add_argument("--brief", action="store_true", help="leave out the per-episode runs")
     args = p.parse_args(argv)
     free = {"base_position": True} if args.free_wrist else {}
-    out = success_rate(args.task, args.robot, args.episodes, args.via, args.mode, args.seed, args.demonstrator,
+    out = success_rate(args.task, args.robot, args.episodes, args.via, args.retarget, args.seed, args.demonstrator,
                        args.failure_rate, **free)  # fmt: skip
     if args.brief:
         out.pop("runs")

@@ -1,5 +1,5 @@
-"""GloveConfig: which glove a command opens and how, parsed once from the spec people type (``--glove``,
-``--port``, a ``glove:`` key in a YAML file):
+"""GloveConfig: which glove a command opens and how, parsed once from the spec people type (``--glove``, a
+``glove:`` key in a YAML file):
 
     emulator                    the built-in emulator on a pseudo-terminal in this process
     serial:/dev/ttyACM0         a serial device (a bare device path works too)
@@ -19,9 +19,9 @@ from __future__ import annotations
 import importlib
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import Literal
+from typing import Annotated, Literal
 
-from recorder.config import STRICT, ConfigError, setting
+from recorder.config import STRICT, ConfigError, Positive, setting
 
 EMULATOR = "emulator"  # the default kind: the built-in emulator, in this process (recorder/emulator/source.py)
 EMULATOR_MODES = ("pose", "raw", "compact", "json")
@@ -116,23 +116,38 @@ SPECS = "emulator, serial:PORT (or a device path), udp:PORT, udp:HOST:PORT, mcap
 @dataclass(frozen=True)
 class GloveConfig:
     """A glove. ``kind``: a registered source (the emulator by default); ``address``: the device path (serial),
-    HOST:PORT (udp), the log file (mcap), none for the emulator. The emulator's ``rate_hz``, output ``mode`` and
-    ``motion``: the wearer moves between ``gestures``, moves ``random``ly, performs the scripted ``demonstrations``
-    of the task being recorded (recorder/demonstrator/performer.py), or the ``calibration`` steps (with the pinch
-    step: ``calibration_pinch``; None: what the command needs). ``seed`` seeds the emulated motion."""
+    HOST:PORT (udp), the log file (mcap), none for the emulator. The emulator's ``rate_hz``, output ``mode`` (the
+    wire format, the protocol's Mode; its flag is ``--output``) and ``motion``: the wearer moves between
+    ``gestures``, moves ``random``ly, performs the scripted ``demonstrations`` of the task being recorded
+    (recorder/demonstrator/performer.py), or the ``calibration`` steps (with the pinch step: ``calibration_pinch``;
+    None: what the command needs). ``seed`` seeds the emulated motion. `gloverec emulate`'s flags are these fields'
+    (``rate_hz``, ``mode``, ``motion``, ``seed``)."""
 
     __pydantic_config__ = STRICT
 
     kind: str = EMULATOR
     address: str = ""
-    baudrate: int = setting(115200, "serial baud rate (USB serial ignores it)")
-    protocol: Literal["auto", "binary", "json"] = setting("auto", "wire protocol: binary frames, legacy JSON lines")
-    rate_hz: float = setting(200.0, "the emulator's sensing and output rate (Hz)")
-    mode: Literal["pose", "raw", "compact", "json"] = setting(
-        "pose", "the emulator's output: fused poses, raw IMU frames (fused on the host), compact poses, legacy JSON"
+    baudrate: Annotated[int, Positive] = setting(
+        115200, "serial baud rate (USB serial ignores it)", flag="--baud", metavar="BAUD"
     )
-    motion: Literal["gestures", "random", "demonstrations", "calibration", "calibration_pinch"] | None = None
-    seed: int = 0
+    protocol: Literal["auto", "binary", "json"] = setting("auto", "wire protocol: binary frames, legacy JSON lines")
+    # the emulator's: `gloverec emulate` takes these flags as they are named here; record and view as --glove-*
+    rate_hz: Annotated[float, Positive] = setting(
+        200.0, "the emulator's sensing and output rate (Hz)", flag="--rate", metavar="HZ"
+    )
+    mode: Literal["pose", "raw", "compact", "json"] = setting(
+        "pose",
+        "the emulator's output: fused poses, raw IMU frames (fused on the host), compact poses, legacy JSON",
+        flag="--output",
+        aliases=("--mode",),
+    )
+    motion: Literal["gestures", "random", "demonstrations", "calibration", "calibration_pinch"] | None = setting(
+        None,
+        "the emulated wearer: moves between gestures, moves at random, performs the task's scripted demonstrations "
+        "(record), or (calibration) rests until `gloverec calibrate` asks for raw frames, then performs its steps "
+        "(with the pinch step: calibration_pinch), then gestures (default: gestures; record: demonstrations)",
+    )
+    seed: int = setting(0, "seeds the emulated motion", metavar="N")
 
     def __post_init__(self):
         for name, valid in (("protocol", PROTOCOLS), ("mode", EMULATOR_MODES)):
@@ -192,3 +207,22 @@ def udp_address(address: str) -> tuple[str, int]:
     if not port.isdigit() or not 0 < int(port) < 65536:
         raise ConfigError(f"bad UDP glove udp:{address}: expected udp:PORT or udp:HOST:PORT")
     return host or "0.0.0.0", int(port)
+
+
+@dataclass
+class LinkConfig:
+    """What `gloverec monitor`, `log` and `bridge` read: a glove's frames as its link delivers them (no fusion), for
+    a while. Their flags are generated from these fields (recorder/config.py); each command takes the ones it
+    uses, and its own outputs (--out, --udp, --json) as flags of its own."""
+
+    __pydantic_config__ = STRICT
+
+    glove: GloveConfig = setting(
+        default_factory=GloveConfig,
+        help=f"the glove: {SPECS}",
+        metavar="GLOVE",
+        aliases=("--port",),
+        flags={"protocol": "--protocol", "baudrate": "--baud"},
+    )
+    duration: Annotated[float, Positive] | None = setting(None, "seconds (default: until Ctrl-C)", metavar="S")
+    fast: bool = setting(False, "play an mcap:FILE back as fast as it decodes", flag="--fast")

@@ -14,6 +14,7 @@ from recorder import config as cfg
 from recorder.config import STRICT, NonNegative, Positive, setting
 from recorder.glove.config import GloveConfig
 from recorder.paths import recordings_dir
+from recorder.view.config import checked_view, checked_wrist
 from recorder.view.process import ViewSpec
 from recorder.wrist.config import SCRIPTED, WristConfig
 
@@ -31,16 +32,6 @@ def repo_id(value: str) -> str:
 RepoId = Annotated[str, AfterValidator(repo_id)]
 
 
-def _view(text: str) -> str:
-    ViewSpec.parse(text)  # ConfigError (a ValueError) names what is valid
-    return text
-
-
-def _wrist(text: str) -> str:
-    WristConfig.parse(text)  # ConfigError names what is valid
-    return text
-
-
 @dataclass
 class RecordConfig:
     __pydantic_config__ = STRICT
@@ -49,7 +40,7 @@ class RecordConfig:
         default_factory=GloveConfig,
         help="emulator, serial:PORT (or a device path), udp:PORT, udp:HOST:PORT or mcap:FILE",
         metavar="GLOVE",
-        flags={"rate_hz": "--glove-rate", "mode": "--glove-mode"},
+        flags={"rate_hz": "--glove-rate", "mode": ("--glove-output", "--glove-mode")},
     )
     robot: str = setting("glovehand", "a robot of configs/robots/ (glovehand, shadow, leap)")
     task: str = setting("pose", "a registered task: pose, grasp, ... (an unknown name lists them; docs/envs.md)")
@@ -83,11 +74,12 @@ class RecordConfig:
         "whose hand: the hand profile saved by `gloverec calibrate --wearer NAME` (default: a 190 mm hand)",
         metavar="NAME",
     )
-    wrist: Annotated[str, AfterValidator(_wrist)] = setting(
+    wrist: Annotated[str, AfterValidator(checked_wrist)] = setting(
         "scripted",
         "where the wrist is: scripted (the task's script; a free-wrist task's demonstrator), udp:PORT (a tracker's "
         "pose stream), marker:CAMERA (a marker on the glove seen by a camera: index, video file or URL; "
-        "marker:emulated renders the emulated wearer's); a tracker puts the base position in the action",
+        "marker:emulated renders the emulated wearer's), mcap:FILE (a session log's), or a plugin's KIND:ADDRESS; "
+        "a tracker puts the base position in the action",
         metavar="SOURCE",
         check=WristConfig.parse,
     )
@@ -125,7 +117,7 @@ class RecordConfig:
     seed: int = setting(0, "episode k of a session resets the environment with seed + k")
     log: bool = setting(True, "no raw MCAP log of the session beside the dataset", flag="--no-log")
     task_text: str | None = setting(None, "the task string stored with every frame (default: the task's)")
-    view: Annotated[str, AfterValidator(_view)] | None = setting(
+    view: Annotated[str, AfterValidator(checked_view)] | None = setting(
         None,
         "live view: native (MuJoCo's viewer), web[:PORT] (a page on 127.0.0.1), rerun[:spawn|serve|connect|save], "
         "none (default: native with a display and a terminal, else none)",

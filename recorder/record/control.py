@@ -129,13 +129,18 @@ class Control:
         return b""
 
     def _lines(self) -> None:
+        # the descriptor's bytes, not stdin's readline: that buffers every line a read brings, and select() would
+        # then wait for more input with the second of two lines that came together ("next\nstop\n") unread
+        buf = b""
         while not self._stop.is_set():
             ready, _, _ = select.select([self._fd], [], [], 0.1)
             if not ready:
                 continue
-            line = self._stdin.readline()
-            if not line:
+            data = os.read(self._fd, 4096)
+            if not data:
                 return  # end of input: counts and durations drive the session
-            what = _LINES.get(line.strip().lower())
-            if what:
-                self.request(what)
+            *lines, buf = (buf + data).split(b"\n")
+            for line in lines:
+                what = _LINES.get(line.decode(errors="replace").strip().lower())
+                if what:
+                    self.request(what)

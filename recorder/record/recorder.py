@@ -40,7 +40,7 @@ from recorder.wrist import open_wrist
 from recorder.wrist.config import SCRIPTED
 from recorder.wrist.fusion import FusedWrist, FusionConfig
 from recorder.wrist.mounting import mounting
-from recorder.wrist.track import EmulatedMarker, WristTrack
+from recorder.wrist.track import WristTrack
 
 FIRST_SAMPLE_TIMEOUT_S = 5.0
 NO_POSE_S = 30.0  # the reset period waits this long for the glove's first hand pose, saying what for
@@ -123,8 +123,8 @@ class Recorder:
         if self.u.config.base_position and wrist.kind == SCRIPTED and self.demonstrator is None:
             raise GloverecError(f"the {cfg.task} task needs a tracked wrist: --wrist udp:PORT or marker:CAMERA "
                                 "(only the emulator's demonstrator moves a scripted one)")  # fmt: skip
-        if wrist.emulated and self.demonstrator is None:
-            raise GloverecError("--wrist marker:emulated films the emulated wearer: record with --glove emulator")
+        if wrist.follows_wearer and self.demonstrator is None:
+            raise GloverecError(f"--wrist {wrist.kind} films the emulated wearer: record with --glove emulator")
         self.demo = None  # the demonstration being performed (its plan)
         if (agent is None) != (cfg.policy is None):
             raise GloverecError("a takeover recording needs its policy loaded: record it with `gloverec record`")
@@ -182,13 +182,10 @@ class Recorder:
         wrist = self.cfg.wrist_config
         if wrist.kind == SCRIPTED:
             return None
-        if wrist.emulated:
-            source = EmulatedMarker(self._demo_palm, mount=wrist.emulated_mount)
-            fusion = FusionConfig(latency_s=source.camera.latency_s)
-        else:
-            source = open_wrist(wrist, self.cfg.wrist_camera, self.cfg.marker_mm, paced=not self.cfg.is_fast,
-                                glove=self.cfg.glove_config)  # fmt: skip
-            fusion = FusionConfig(latency_s=getattr(source, "latency_s", 0.0))  # a log's: its recording's
+        source = open_wrist(wrist, self.cfg.wrist_camera, self.cfg.marker_mm, paced=not self.cfg.is_fast,
+                            glove=self.cfg.glove_config, wearer=self._demo_palm)  # fmt: skip
+        # the tracker's latency, where the source knows it: a log's (its recording's), the emulated webcam's
+        fusion = FusionConfig(latency_s=getattr(source, "latency_s", 0.0))
         return WristTrack(source, fusion, mounting(source, self.cfg.wrist_mount, say=self._say)).open()
 
     def _demo_palm(self, t: float):

@@ -14,8 +14,8 @@ fingers (no pinky) takes the thumb and the fingers it has.
 The palm orientation becomes a rotation vector (3, rad): the palm's rotation since the first frame after
 ``reset()`` in the palm's own axes (``palm_reference="first"``; any glove heading works), or its absolute
 orientation in the glove's world (``"absolute"``). Environments apply it to their hand base. With
-``base_position`` (a free wrist) the palm's position target (3, m, the robot's world: recorder/wrist/mapping.py
-maps a tracker's) follows it.
+``base_position`` (a free wrist) the palm's position target (3, m, the robot's world: recorder/wrist/fusion.py
+maps a tracker's, ``WristFusion.zero`` and ``pose``) follows it.
 """
 
 from __future__ import annotations

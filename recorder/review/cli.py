@@ -8,6 +8,7 @@ import os
 
 import annotated_types as at
 
+from recorder import config
 from recorder.argtypes import number
 
 PORT = number(int, at.Ge(0), at.Le(65535))
@@ -33,7 +34,9 @@ def add_parser(sub) -> None:
     p.add_argument("--out", help="with --root: where Publish writes the reviewed dataset, a new folder "
                    "(default: ROOT-reviewed)")  # fmt: skip
     p.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1: this machine only)")
-    p.add_argument("--port", type=PORT, default=8766, help="port (default 8766; 0: any free one)")
+    # the page's port, named apart from the glove's old --port (docs/decisions.md); --port: its old name
+    config.add_option(p, "--http-port", "--port", type=PORT, default=8766, metavar="PORT",
+                      help="the page's TCP port (default 8766; 0: any free one)")  # fmt: skip
     p.add_argument("--no-browser", action="store_true", help="do not open the page in a browser")
     p.set_defaults(func=run)
 
@@ -46,7 +49,7 @@ def run(args) -> int:
     if args.version and not args.hub:
         raise GloverecError("--version names a hub version: pass --hub too")
     session = Session(args.repo_id, root=args.root, hub=args.hub, version=args.version, out=args.out)
-    review = Review(session, args.host, args.port)
+    review = Review(session, args.host, args.http_port)
     print(f"review: {review.url}", flush=True)
     if not args.no_browser and (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
         import webbrowser

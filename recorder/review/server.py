@@ -30,7 +30,9 @@ class Review:
             self.server = ThreadingHTTPServer((host, port), _handler(self))
         except OSError as exc:
             self.frames.close()
-            raise GloverecError(f"cannot serve on {host}:{port} ({exc.strerror or exc}): pass another --port") from None
+            raise GloverecError(
+                f"cannot serve on {host}:{port} ({exc.strerror or exc}): pass another --http-port"
+            ) from None
         self.server.daemon_threads = True
         self.url = f"http://{host}:{self.server.server_address[1]}/"
 

@@ -2,7 +2,7 @@
 native, web or rerun) or rendered to a video.
 
     gloverec view --glove emulator|serial:PORT|udp:PORT|mcap:FILE --robot NAME [--task pose|grasp]
-                  [--mode joint|ik|pinch] [--wearer NAME] [--view native|web[:PORT]|rerun[:MODE]] [--video FILE.mp4]
+                  [--retarget joint|ik|pinch] [--wearer NAME] [--view native|web[:PORT]|rerun[:MODE]] [--video FILE.mp4]
                   [--duration S] [--wrist udp:PORT|marker:CAMERA [--wrist-camera FILE.json] [--marker-mm 40]]
 
 The glove's newest HandPose (any glove: pose, compact, or raw frames fused on the host) is retargeted and steps
@@ -18,7 +18,7 @@ source, fusion with the palm IMU and mapping; zeroed as the view starts, at each
 and the view shows the tracked palm, its tracking and the workspace's bounds (recorder/view/wrist.py). A free-wrist
 task (relocate) has no base without one, and says so in one line.
 
-The command's flags: recorder/view/cli.py.
+The command's flags: ViewConfig (recorder/view/config.py), generated in recorder/view/cli.py.
 """
 
 from __future__ import annotations
@@ -31,11 +31,11 @@ import mujoco
 
 from envs.tasks import get_task, make_task
 from recorder import GloverecError
-from recorder.glove.config import GloveConfig
 from recorder.glove.glove import open_glove
 from recorder.hand.profile import wearer_profile
 from recorder.retarget import Retargeter
 from recorder.view import wrist as wrist_view
+from recorder.view.config import ViewConfig
 from recorder.view.process import ViewSpec, default_view, open_view
 from recorder.view.scene import Stage, frame_of, free_camera, layout_of
 from recorder.wrist import open_wrist
@@ -48,28 +48,28 @@ FIRST_POSE_S = 5.0  # a raw glove shows its first pose after host fusion's rest 
 STATUS_S = 0.25
 
 
-def run(args) -> int:
-    view = args.view
-    if view is None and args.video is None:
+def run(cfg: ViewConfig) -> int:
+    view = cfg.view
+    if view is None and cfg.video is None:
         view, hint = default_view()
         if hint:
             raise GloverecError("no display: pass --view web (a page in a browser) or --video FILE.mp4")
-    duration = args.duration
-    if duration is None and args.video and args.glove == "emulator":
+    duration = cfg.duration
+    if duration is None and cfg.video and cfg.glove.kind == "emulator":
         duration = 10.0
-    size = wearer_profile(args.wearer).size()  # a missing or impossible profile: one line, before anything opens
-    wrist = WristConfig.parse(args.wrist)
-    if wrist.emulated:
-        raise GloverecError("--wrist marker:emulated films `gloverec record`'s demonstrator: pass udp:PORT or "
+    size = wearer_profile(cfg.wearer).size()  # a missing or impossible profile: one line, before anything opens
+    wrist = WristConfig.parse(cfg.wrist)
+    if wrist.follows_wearer:
+        raise GloverecError(f"--wrist {wrist.kind} films `gloverec record`'s demonstrator: pass udp:PORT or "
                             "marker:CAMERA")  # fmt: skip
-    overrides = dict(get_task(args.task).live)  # the task's endless live scene
+    overrides = dict(get_task(cfg.task).live)  # the task's endless live scene
     if wrist.kind != SCRIPTED:  # the wearer places the base; a scene lasts until "next", which zeroes the wrist again
         overrides.update(base_position=True, episode_s=1e9, terminate_on_success=False)
-    env = make_task(args.task, args.robot, **overrides)
+    env = make_task(cfg.task, cfg.robot, **overrides)
     u = env.unwrapped
     if u.config.base_position and wrist.kind == SCRIPTED:
-        raise GloverecError(f"the {args.task} task needs a tracked wrist: pass --wrist udp:PORT or marker:CAMERA")
-    retarget = Retargeter.for_env(env, args.mode, hand_size=size)
+        raise GloverecError(f"the {cfg.task} task needs a tracked wrist: pass --wrist udp:PORT or marker:CAMERA")
+    retarget = Retargeter.for_env(env, cfg.retarget, hand_size=size)
     requests: list[str] = []
     lock = threading.Lock()
 
@@ -79,22 +79,22 @@ def run(args) -> int:
 
     shown = None
     if view is not None and ViewSpec.parse(view).kind != "none":
-        shown = open_view(view, args.task, args.robot, layout_of(u), overrides, on_event=request, say=print,
+        shown = open_view(view, cfg.task, cfg.robot, layout_of(u), overrides, on_event=request, say=print,
                           hand_size=size)  # fmt: skip
         shown.wait_ready()
     glove = track = None
     try:
-        glove = open_glove(GloveConfig.parse(args.glove), motion="gestures")
+        glove = open_glove(cfg.glove, motion="gestures")
         if wrist.kind != SCRIPTED:
-            source = open_wrist(wrist, args.wrist_camera, args.marker_mm)
+            source = open_wrist(wrist, cfg.wrist_camera, cfg.marker_mm)
             track = WristTrack(source, marker_in_palm=mounting(source, say=print)).open()
         env.reset(seed=0)
         if glove.latest(wait_s=FIRST_POSE_S) is None:
-            raise GloverecError(f"no hand pose from {args.glove} in {FIRST_POSE_S:.0f} s: is it a glove, sending?")
-        session = _Session(env, retarget, glove, shown, lock, requests, args, overrides, track)
-        steps = session.run(duration, args.video)
-        if args.video:
-            print(f"view: {steps} frames of {args.robot} ({args.task}) to {args.video}, {glove.frames} glove frames"
+            raise GloverecError(f"no hand pose from {cfg.glove} in {FIRST_POSE_S:.0f} s: is it a glove, sending?")
+        session = _Session(env, retarget, glove, shown, lock, requests, cfg, overrides, track)
+        steps = session.run(duration, cfg.video)
+        if cfg.video:
+            print(f"view: {steps} frames of {cfg.robot} ({cfg.task}) to {cfg.video}, {glove.frames} glove frames"
                   + (f", wrist tracked {session.tracked_share:.0%}" if track is not None else ""))  # fmt: skip
     except KeyboardInterrupt:
         pass
@@ -109,12 +109,12 @@ def run(args) -> int:
 class _Session:
     """The loop: glove -> retarget -> env, at the task's control rate, shown and/or filmed."""
 
-    def __init__(self, env, retarget, glove, view, lock, requests, args, options, wrist=None):
+    def __init__(self, env, retarget, glove, view, lock, requests, cfg, options, wrist=None):
         self.env, self.u, self.retarget, self.glove, self.view = env, env.unwrapped, retarget, glove, view
-        self.lock, self.requests, self.args, self.options = lock, requests, args, options
+        self.lock, self.requests, self.cfg, self.options = lock, requests, cfg, options
         self.seed, self._status, self._status_at = 0, {}, -1.0
         self.wrist = wrist  # a WristTrack (None: the task scripts the base)
-        self.source = WristConfig.parse(args.wrist).kind
+        self.source = WristConfig.parse(cfg.wrist).kind
         self.frames = self.untracked = 0  # the wrist's, since it was zeroed
         self._zero_wrist()
 
@@ -139,7 +139,7 @@ class _Session:
         writer = stage = renderer = None
         if video:
             writer = imageio.get_writer(video, fps=rate, codec="libx264", quality=7, macro_block_size=8)
-            stage = Stage(self.args.task, self.args.robot, self.options, hand_size=self.retarget.hand_size)
+            stage = Stage(self.cfg.task, self.cfg.robot, self.options, hand_size=self.retarget.hand_size)
             renderer = mujoco.Renderer(stage.model, *VIDEO_SIZE)
             camera, opt = free_camera(stage), mujoco.MjvOption()
         steps, start = 0, time.monotonic()
@@ -205,7 +205,7 @@ class _Session:
         if now - self._status_at >= STATUS_S:
             self._status_at = now
             health = self.glove.health()
-            self._status = {"phase": f"viewing {self.args.task} on {self.args.robot}", "seed": self.seed,
+            self._status = {"phase": f"viewing {self.cfg.task} on {self.cfg.robot}", "seed": self.seed,
                             "glove": {"rate_hz": health.rate_hz, "up": health.up},
                             "keys": ["hand", "next", "reset", "stop"]}  # fmt: skip
         status = dict(self._status)

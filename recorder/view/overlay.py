@@ -15,6 +15,8 @@ overlays.
 
 from __future__ import annotations
 
+from recorder.wrist.config import SCRIPTED, seen
+
 # The keys of the native view (MuJoCo's viewer binds Esc, the arrows, the letters and F1-F7 itself): they do what
 # the terminal keys do. GLFW key codes.
 KEYS = {297: "hand", 298: "next", 299: "rerecord", 300: "reset", 301: "stop"}  # F8 .. F12
@@ -97,12 +99,12 @@ def sides(edge: list) -> str:
 def wrist_text(wrist: dict) -> str:
     """The wrist row (recorder/view/wrist.py's status): its state, what to do when the tracker lost it."""
     state = wrist.get("state")
-    if wrist.get("source") == "scripted":
+    if wrist.get("source") == SCRIPTED:
         return "the demonstrator's (scripted)"
     if state == "waiting":
         return "zeroed as the episode starts: palm flat and down, fingers forward"
     share = f"tracked {wrist.get('tracked_share', 0.0):.0%} so far"
-    what = "marker" if wrist.get("source") == "marker" else "tracker"
+    what = seen(wrist.get("source"))  # the registered source's name for what it tracks: marker, tracker
     if state == "lost":
         return f"{what.upper()} LOST {wrist.get('age_s', 0.0):.1f} s ago: hold still until it sees you again ({share})"
     if state == "catching up":
@@ -112,7 +114,7 @@ def wrist_text(wrist: dict) -> str:
 
 def wrist_brief(wrist: dict | None) -> str:
     """The wrist in a few words, for the terminal's status line ("" without one)."""
-    if not wrist or wrist.get("source") == "scripted" or wrist.get("state") in ("waiting", None):
+    if not wrist or wrist.get("source") == SCRIPTED or wrist.get("state") in ("waiting", None):
         return ""
     state = wrist["state"]
     text = {"lost": f"wrist LOST {wrist.get('age_s', 0.0):.1f} s", "catching up": "wrist catching up"}.get(

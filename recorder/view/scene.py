@@ -16,6 +16,7 @@ import envs
 from recorder.hand.kinematics import JOINTS, HandSize, forward
 from recorder.hand.skeleton import FINGER_SEGMENTS, FINGERS
 from recorder.view.state import Layout, ViewFrame
+from recorder.wrist.config import seen
 
 GHOST_RGBA = np.array([0.35, 0.8, 1.0, 0.3], np.float32)
 SKIN_RGBA = np.array([0.93, 0.72, 0.58, 1.0], np.float32)
@@ -142,8 +143,7 @@ class Stage:
         if edge:  # from where the wrist is to where the robot's palm is held
             _capsule(scn, pos, held, LINE_RADIUS, EDGE_RGBA)
         if wrist["state"] == "lost":  # above the plate, and so above the robot's label when the palm is held there
-            what = "marker" if wrist.get("source") == "marker" else "tracker"
-            _label(scn, plate + LABEL_LIFT, f"{what} lost: hold still")
+            _label(scn, plate + LABEL_LIFT, f"{seen(wrist.get('source'))} lost: hold still")
 
     def _ghost(self, scn, opt) -> None:
         g = self.ghost

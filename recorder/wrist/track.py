@@ -24,17 +24,28 @@ FIRST_POSE_S = 5.0  # an episode waits this long for a tracked pose to zero on
 class EmulatedMarker:
     """A source that renders what a webcam would film of ``truth(t)`` (the palm's (position, quat) in W at the
     loop's time t) at the camera's rate, each frame usable ``latency_s`` after its capture; the default camera's
-    marker is mounted on the palm as ``mount`` (WristConfig.emulated_mount)."""
+    marker is mounted on the palm as ``mount`` (recorder/wrist/sources.py emulated_mount). A source on the loop's
+    clock: ``until(t)`` makes its poses (recorder/wrist/config.py WristKind)."""
 
     name = "marker:emulated"
     finished = False
 
     def __init__(self, truth, camera=None, mount=MARKER_ON_BACK):
-        from recorder.wrist.emulated import EmulatedCamera
+        from recorder.wrist.emulated import EmulatedCamera  # OpenCV: loaded only where the wearer is filmed
 
         self.truth = truth
         self.camera = camera or EmulatedCamera(marker_in_palm=mount)
         self.next_t = None
+
+    @property
+    def latency_s(self) -> float:
+        """The emulated camera's, capture to stamp (the fusion takes it)."""
+        return self.camera.latency_s
+
+    @property
+    def true_mount(self):
+        """The marker's true mounting on the palm (wxyz): what `gloverec calibrate --wrist` should find."""
+        return self.camera.marker_in_palm
 
     def open(self):
         return self
@@ -83,7 +94,7 @@ class WristTrack:
     def update(self, t: float, palm_quat) -> None:
         """The glove's palm orientation at loop time ``t``, and the tracker's poses up to ``t``."""
         self.fusion.imu(t, palm_quat)
-        if isinstance(self.source, EmulatedMarker):
+        if hasattr(self.source, "until"):  # a source on the loop's clock (EmulatedMarker): poses up to t
             self._pending.extend((pose, None) for pose in self.source.until(t))
         else:
             self._t0 = t if self._t0 is None else self._t0

@@ -68,7 +68,7 @@ class GloverecGlove(Teleoperator):
         config = dataclasses.replace(config, calibration_dir=calibration_dir(config.calibration_dir))
         super().__init__(config)
         self.config = config
-        self.glove_config = GloveConfig.parse(config.port, mode=config.emulator_mode)  # a bad port: one line
+        self.glove_config = GloveConfig.parse(config.port, mode=config.emulator_output)  # a bad port: one line
         self.glove_id = _hex(config.glove_id)
         # a missing or impossible profile: one line, before any glove opens (motor maps take angles, not sizes)
         self.profile = wearer_profile(config.wearer, config.calibration_dir)

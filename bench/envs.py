@@ -38,10 +38,10 @@ import numpy as np  # noqa: E402
 from _common import merged_with_previous, write_results  # noqa: E402
 
 import envs  # noqa: E402
-from recorder.demonstrator.rollout import run_episode, success_rate  # noqa: E402
 from recorder.hand.gestures import GESTURES  # noqa: E402
 from recorder.hand.motion import Motion  # noqa: E402
 from recorder.retarget import Retargeter  # noqa: E402
+from recorder.rig.rollout import run_episode, success_rate  # noqa: E402
 
 ROBOTS = ("glovehand", "shadow")  # the costs
 SUCCESS_ROBOTS = ("glovehand", "shadow", "leap")

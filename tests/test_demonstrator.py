@@ -7,12 +7,12 @@ import envs
 from recorder import GloverecError, quat
 from recorder.demonstrator import DemoMotion, make_demonstrator
 from recorder.demonstrator.performer import Performer
-from recorder.demonstrator.rollout import run_episode
 from recorder.emulator.glove import SyntheticGlove
 from recorder.glove.config import GloveConfig
 from recorder.glove.glove import make_glove
 from recorder.hand.gestures import GESTURES
 from recorder.retarget import Retargeter
+from recorder.rig.rollout import run_episode
 
 
 @pytest.mark.parametrize("robot", ["glovehand", "shadow"])

@@ -12,9 +12,9 @@ import pytest
 
 import envs
 from conftest import cli
-from recorder.demonstrator.rollout import run_episode
 from recorder.hand.gestures import GESTURES
 from recorder.retarget.retargeter import Retargeter
+from recorder.rig.rollout import run_episode
 
 TASKS = ("pinch", "keys", "turn")
 ROBOTS = ("glovehand", "shadow", "leap")

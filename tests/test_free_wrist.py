@@ -13,8 +13,8 @@ import torch
 import envs
 from conftest import cli, gloverec
 from recorder import quat
-from recorder.demonstrator.rollout import run_episode
 from recorder.retarget import Retargeter
+from recorder.rig.rollout import run_episode
 from recorder.wrist.format import WristPose
 from recorder.wrist.fusion import FusionConfig, WristFusion
 

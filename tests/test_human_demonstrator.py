@@ -12,8 +12,8 @@ from lerobot.datasets.lerobot_dataset import LeRobotDataset
 import envs
 from conftest import cli
 from recorder.demonstrator import make_demonstrator
-from recorder.demonstrator.rollout import success_rate
 from recorder.record.sidecar import read_sidecar
+from recorder.rig.rollout import success_rate
 
 
 @pytest.mark.parametrize("task", ["grasp", "pinch", "pose", "keys", "turn"])

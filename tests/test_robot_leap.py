@@ -11,11 +11,11 @@ import pytest
 import envs
 from conftest import cli, gloverec
 from envs.robots import load_robot, robot_names
-from recorder.demonstrator.rollout import run_episode
 from recorder.hand.profile import HandProfile, save_profile
 from recorder.log.playback import read_log
 from recorder.paths import assets_dir
 from recorder.retarget import Retargeter
+from recorder.rig.rollout import run_episode
 
 REPO = "test/leap"
 

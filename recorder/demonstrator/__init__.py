@@ -3,7 +3,7 @@
 ``make_demonstrator(task)`` -> an object with ``plan(env, seed) -> DemoMotion`` for a reset env of that task: the
 demonstrator the task registry (envs/tasks/registry.py) names.
 A DemoMotion drives a Retargeter directly, or a SyntheticGlove / the glove emulator, so that demonstrations
-carry the glove's sensor noise and latency through the whole stack. ``rollout`` runs and scores them.
+carry the glove's sensor noise and latency through the whole stack. recorder/rig/rollout.py runs and scores them.
 """
 
 from __future__ import annotations

@@ -11,12 +11,13 @@ from typing import Annotated, Literal
 from pydantic import AfterValidator
 
 from recorder import config as cfg
-from recorder.config import STRICT, NonNegative, Positive, setting
+from recorder.config import NonNegative, Positive, setting
 from recorder.glove.config import GloveConfig
 from recorder.paths import recordings_dir
-from recorder.view.config import checked_view, checked_wrist
+from recorder.rig.config import SessionConfig
+from recorder.view.config import checked_view
 from recorder.view.process import ViewSpec
-from recorder.wrist.config import SCRIPTED, WristConfig
+from recorder.wrist.config import SCRIPTED
 
 REPO_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*/[A-Za-z0-9][A-Za-z0-9._-]*$")
 CAMERAS = ("front", "top", "side")
@@ -33,17 +34,9 @@ RepoId = Annotated[str, AfterValidator(repo_id)]
 
 
 @dataclass
-class RecordConfig:
-    __pydantic_config__ = STRICT
+class RecordConfig(SessionConfig):
+    """The session (SessionConfig: glove, robot, task, retargeting, wearer, wrist) and how it is recorded."""
 
-    glove: GloveConfig = setting(
-        default_factory=GloveConfig,
-        help="emulator, serial:PORT (or a device path), udp:PORT, udp:HOST:PORT or mcap:FILE",
-        metavar="GLOVE",
-        flags={"rate_hz": "--glove-rate", "mode": ("--glove-output", "--glove-mode")},
-    )
-    robot: str = setting("glovehand", "a robot of configs/robots/ (glovehand, shadow, leap)")
-    task: str = setting("pose", "a registered task: pose, grasp, ... (an unknown name lists them; docs/envs.md)")
     fps: Annotated[int, Positive] = setting(30, "dataset frames per second (the environment's control rate)")
     episodes: Annotated[int, Positive] = setting(10, "episodes to save")
     episode_time_s: Annotated[float, Positive] | None = setting(None, "longest episode (default: the task's)")
@@ -66,33 +59,6 @@ class RecordConfig:
         negation="--fast",
         negation_help="as fast as the glove delivers (default for the emulator and logs)",
     )
-    retarget: Literal["joint", "ik", "pinch"] = setting(
-        "joint", "retargeting mode: joint map, fingertip IK, or pinch-preserving (fingertips, pinches, no overlap)"
-    )
-    wearer: str | None = setting(
-        None,
-        "whose hand: the hand profile saved by `gloverec calibrate --wearer NAME` (default: a 190 mm hand)",
-        metavar="NAME",
-    )
-    wrist: Annotated[str, AfterValidator(checked_wrist)] = setting(
-        "scripted",
-        "where the wrist is: scripted (the task's script; a free-wrist task's demonstrator), udp:PORT (a tracker's "
-        "pose stream), marker:CAMERA (a marker on the glove seen by a camera: index, video file or URL; "
-        "marker:emulated renders the emulated wearer's), mcap:FILE (a session log's), or a plugin's KIND:ADDRESS; "
-        "a tracker puts the base position in the action",
-        metavar="SOURCE",
-        check=WristConfig.parse,
-    )
-    wrist_camera: str | None = setting(
-        None, "the marker camera's calibration (default: the one `gloverec calibrate --camera` saved)", metavar="FILE"
-    )
-    wrist_mount: str | None = setting(
-        None,
-        "where the tracked marker sits on the glove (default: the marker_mount.json `gloverec calibrate --wrist` "
-        "saved, else flat on the back of the hand; a session log's own for mcap:FILE)",
-        metavar="FILE",
-    )
-    marker_mm: Annotated[float, Positive] = setting(40.0, "the marker's printed side, mm")
     demonstrator: Literal["scripted", "human"] = setting(
         "scripted",
         "the emulated wearer (--glove emulator): scripted (smooth, nearly always right) or human (reaction times, "
@@ -136,10 +102,6 @@ class RecordConfig:
         return GloveConfig.parse(self.glove, seed=self.seed)
 
     @property
-    def wrist_config(self) -> WristConfig:
-        return WristConfig.parse(self.wrist)
-
-    @property
     def is_fast(self) -> bool:
         return not self.glove.is_device if self.realtime is None else not self.realtime
 
@@ -180,8 +142,7 @@ class RecordConfig:
     def task_options(self) -> dict:
         """The task's settings this recording gives (the rest are the task's defaults)."""
         options = {"control_hz": float(self.fps), "cameras": tuple(self.cameras), "image_size": tuple(self.image_size)}
-        if self.wrist_config.kind != SCRIPTED:
-            options["base_position"] = True  # a tracked wrist: the wearer places the base
+        options.update(self.tracked_options())  # a tracked wrist: the wearer places the base
         if self.episode_time_s:
             options["episode_s"] = float(self.episode_time_s)
         return options

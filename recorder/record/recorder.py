@@ -20,11 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-import envs
 from recorder import GloverecError
-from recorder.demonstrator import make_demonstrator
-from recorder.demonstrator.performer import Performer, performs
-from recorder.glove.glove import make_glove
 from recorder.hand.profile import HandProfile, wearer_profile
 from recorder.log.writer import McapLogger
 from recorder.record.clock import ENDED, LOST, clock_for
@@ -35,12 +31,9 @@ from recorder.record.live import LiveView
 from recorder.record.store import EpisodeStore
 from recorder.record.takeover import WEARER, Takeover, TakeoverConfig
 from recorder.record.writer import EpisodeWriter
-from recorder.retarget import Retargeter
-from recorder.wrist import open_wrist
+from recorder.rig.rig import Rig
 from recorder.wrist.config import SCRIPTED
-from recorder.wrist.fusion import FusedWrist, FusionConfig
-from recorder.wrist.mounting import mounting
-from recorder.wrist.track import WristTrack
+from recorder.wrist.fusion import FusedWrist
 
 FIRST_SAMPLE_TIMEOUT_S = 5.0
 NO_POSE_S = 30.0  # the reset period waits this long for the glove's first hand pose, saying what for
@@ -106,26 +99,22 @@ class Recorder:
         (`gloverec rerecord`); episodes then start at those device times instead of at buttons or keys.
         ``profile``: the wearer's hand (default: ``cfg.wearer``'s saved profile, or the reference hand)."""
         self.cfg = cfg
-        self.profile = profile if profile is not None else wearer_profile(cfg.wearer)  # missing: one line, first
+        profile = profile if profile is not None else wearer_profile(cfg.wearer)  # missing: one line, first
         self.plan = list(plan) if plan is not None else None
         self.out = sys.stderr if out is STDERR else out  # None: silent; stderr resolved now (it may be redirected)
         cfg.check()
-        try:
-            self.env = envs.make(cfg.task, cfg.robot, **cfg.task_options())
-            self.env.reset(seed=cfg.seed)  # a task setting that cannot work fails here, before anything is written
-        except ValueError as exc:
-            raise GloverecError(str(exc)) from None
-        self.u = self.env.unwrapped
-        self.retarget = Retargeter.for_env(self.env, cfg.retarget, hand_size=self.profile.size())
-        scripted = performs(cfg.glove_config)  # the emulated wearer performs the demonstrator's demonstrations
-        self.demonstrator = make_demonstrator(cfg.task, cfg.demonstrator, cfg.failure_rate) if scripted else None
+        # the session's parts: the task (reset: a setting that cannot work fails before anything is written), the
+        # wearer's hand and the retargeter, the demonstrator when the emulated wearer performs its demonstrations
+        self.rig = Rig(cfg, options=cfg.task_options(), seed=cfg.seed, profile=profile, demonstrator=cfg.demonstrator,
+                       failure_rate=cfg.failure_rate, say=self._say)  # fmt: skip
+        self.profile, self.env, self.u, self.retarget = profile, self.rig.env, self.rig.u, self.rig.retarget
+        self.demonstrator = self.rig.demonstrator
         wrist = cfg.wrist_config
         if self.u.config.base_position and wrist.kind == SCRIPTED and self.demonstrator is None:
             raise GloverecError(f"the {cfg.task} task needs a tracked wrist: --wrist udp:PORT or marker:CAMERA "
                                 "(only the emulator's demonstrator moves a scripted one)")  # fmt: skip
         if wrist.follows_wearer and self.demonstrator is None:
             raise GloverecError(f"--wrist {wrist.kind} films the emulated wearer: record with --glove emulator")
-        self.demo = None  # the demonstration being performed (its plan)
         if (agent is None) != (cfg.policy is None):
             raise GloverecError("a takeover recording needs its policy loaded: record it with `gloverec record`")
         self.agent = agent(self.env) if agent is not None else None  # a wrong policy: one line, before any file
@@ -154,16 +143,11 @@ class Recorder:
 
     def _open_session(self, control) -> None:
         cfg = self.cfg
-        self.performer = None  # the emulated wearer (with the demonstrator): it wears the glove
-        if self.demonstrator is not None:
-            self.performer = Performer(cfg.glove_config, fast=cfg.is_fast, say=self._say)
-            self.glove = self.performer.glove
-        else:
-            self.glove = make_glove(cfg.glove_config, fast=cfg.is_fast, say=self._say)
+        self.rig.wear(fast=cfg.is_fast, say=self._say)  # the glove (worn by the performer) and the tracked wrist
+        self.glove, self.wrist = self.rig.glove, self.rig.wrist
         self.clock = clock_for(cfg.is_fast, self.glove, cfg.fps, cfg.glove.rate_hz)
         self.glove.fusion.keep_in(self.store.work, self._say)  # meta/gloverec/calibration.json, before any episode
         write_profile(self.store.work, self.profile)  # meta/gloverec/hand_profile.json: whose hand it was
-        self.wrist = self._open_wrist()
         self._device_shift = 0.0  # the glove's device clock - the loop's, at the frame in progress (the wrist's log)
         self.logger = None
         self.log_rel = None
@@ -176,26 +160,6 @@ class Recorder:
         )
         self.period = 1.0 / cfg.fps
         self._last_line = 0.0
-
-    def _open_wrist(self) -> WristTrack | None:
-        """The tracked wrist (None: the task's script, or a free-wrist task's demonstrator, moves the base)."""
-        wrist = self.cfg.wrist_config
-        if wrist.kind == SCRIPTED:
-            return None
-        source = open_wrist(wrist, self.cfg.wrist_camera, self.cfg.marker_mm, paced=not self.cfg.is_fast,
-                            glove=self.cfg.glove_config, wearer=self._demo_palm)  # fmt: skip
-        # the tracker's latency, where the source knows it: a log's (its recording's), the emulated webcam's
-        fusion = FusionConfig(latency_s=getattr(source, "latency_s", 0.0))
-        return WristTrack(source, fusion, mounting(source, self.cfg.wrist_mount, say=self._say)).open()
-
-    def _demo_palm(self, t: float):
-        """The emulated wearer's palm (position, quat) in the robot's world at glove time ``t``: as the emulator
-        performs it (its IMUs measure that palm, drift included) faster than real time, else the demonstration's
-        plan."""
-        if self.glove.fast:
-            return self.performer.performed(t)
-        b = self.demo.at([t - self._episode_start])
-        return b.palm_pos[0], b.palm_quat[0]
 
     def _open_log(self) -> None:
         logs = self.store.work / "logs"
@@ -302,9 +266,7 @@ class Recorder:
             self.logger.close()
         self.live.close()
         self.control.close()
-        if self.wrist is not None:
-            self.wrist.close()
-        self.env.close()
+        self.rig.close()  # the wrist and the task (the glove again: closing it twice is fine)
 
     # ------------------------------------------------------------ one episode
     def _one_episode(self, index: int) -> tuple[str, dict | None]:
@@ -318,10 +280,7 @@ class Recorder:
             self.agent.reset(self.env, seed)
             self.takeover.reset()
             self.live.control = self.takeover.who
-        self.demo = None
-        if self.demonstrator is not None:
-            self.demo = self.demonstrator.plan(self.u, seed=seed)
-            self.performer.demonstrate(self.demo)
+        self.demo = self.rig.demonstrate(seed) if self.demonstrator is not None else None
         if planned is not None:
             start = planned[1] if self.glove.wait_past(planned[1]) else None
             self.glove.buttons.clear()
@@ -401,7 +360,7 @@ class Recorder:
         stats = EpisodeStats(g.counters())
         n_max = frames or int(round(self.u.config.episode_s * self.cfg.fps))
         clock.start(start)
-        self._episode_start = start
+        self.rig.episode_start = start  # the emulated wearer's palm as planned is the demonstration's from here
         if self.wrist is not None:
             self._zero_wrist(start)
         device_start, success, stop_after, host_tick = None, False, False, None
@@ -463,7 +422,7 @@ class Recorder:
         if at is None:
             raise GloverecError(f"no hand pose from {g.name} to start the wrist's tracking on")
         self._shift_to_device(self.clock.device_time(at, t), t)
-        self.wrist.zero(t, self.u.palm_pose()[0], at.pose.palm, wait)
+        self.rig.zero_wrist(t, at.pose.palm, wait)
 
     def _shift_to_device(self, device_time: float, t: float) -> None:
         """The glove's device clock less the loop's (0 faster than real time, or for a glove without a clock)."""
@@ -476,7 +435,7 @@ class Recorder:
             self.wrist.update(t, palm)
             return self.wrist.pose(t)
         if self.u.config.base_position:
-            pos, _ = self._demo_palm(t)
+            pos, _ = self.rig.wearer_palm(t)
             return FusedWrist(pos, np.asarray(palm, float), True, 0.0)
         return None
 
@@ -500,7 +459,7 @@ class Recorder:
         if self.wrist is not None:
             stats.wrist_delays_s.extend(self.wrist.applied())  # its target applied: a tracker's frame's delay
         if self.demo is not None:
-            self.demo.watch(self.u, into=self.performer)  # a demonstrator that watches corrects what is still ahead
+            self.demo.watch(self.u, into=self.rig.performer)  # a demonstrator that watches corrects what is still ahead
         row = Row(obs, info["applied_action"], at.pose, latency, at.age_s, rinfo["tip_error_mean"], host_tick,
                   device_time, self.task_text, wrist, decision)  # fmt: skip
         self.live.recording(index, k, n_max, stats, wrist)

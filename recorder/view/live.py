@@ -29,19 +29,14 @@ import time
 import imageio.v2 as imageio
 import mujoco
 
-from envs.tasks import get_task, make_task
 from recorder import GloverecError
-from recorder.glove.glove import open_glove
 from recorder.hand.profile import wearer_profile
-from recorder.retarget import Retargeter
+from recorder.rig.rig import Rig
 from recorder.view import wrist as wrist_view
 from recorder.view.config import ViewConfig
 from recorder.view.process import ViewSpec, default_view, open_view
 from recorder.view.scene import Stage, frame_of, free_camera, layout_of
-from recorder.wrist import open_wrist
-from recorder.wrist.config import SCRIPTED, WristConfig
-from recorder.wrist.mounting import mounting
-from recorder.wrist.track import WristTrack
+from recorder.wrist.config import SCRIPTED
 
 VIDEO_SIZE = (480, 640)  # height, width
 FIRST_POSE_S = 5.0  # a raw glove shows its first pose after host fusion's rest (about 1.5 s)
@@ -57,19 +52,25 @@ def run(cfg: ViewConfig) -> int:
     duration = cfg.duration
     if duration is None and cfg.video and cfg.glove.kind == "emulator":
         duration = 10.0
-    size = wearer_profile(cfg.wearer).size()  # a missing or impossible profile: one line, before anything opens
-    wrist = WristConfig.parse(cfg.wrist)
+    profile = wearer_profile(cfg.wearer)  # a missing or impossible profile: one line, before anything opens
+    wrist = cfg.wrist_config
     if wrist.follows_wearer:
         raise GloverecError(f"--wrist {wrist.kind} films `gloverec record`'s demonstrator: pass udp:PORT or "
                             "marker:CAMERA")  # fmt: skip
-    overrides = dict(get_task(cfg.task).live)  # the task's endless live scene
-    if wrist.kind != SCRIPTED:  # the wearer places the base; a scene lasts until "next", which zeroes the wrist again
-        overrides.update(base_position=True, episode_s=1e9, terminate_on_success=False)
-    env = make_task(cfg.task, cfg.robot, **overrides)
-    u = env.unwrapped
-    if u.config.base_position and wrist.kind == SCRIPTED:
-        raise GloverecError(f"the {cfg.task} task needs a tracked wrist: pass --wrist udp:PORT or marker:CAMERA")
-    retarget = Retargeter.for_env(env, cfg.retarget, hand_size=size)
+    overrides = cfg.task_options()
+    rig = Rig(cfg, options=overrides, seed=None, profile=profile, say=print)
+    try:
+        if rig.u.config.base_position and wrist.kind == SCRIPTED:
+            raise GloverecError(f"the {cfg.task} task needs a tracked wrist: pass --wrist udp:PORT or marker:CAMERA")
+        _view(cfg, rig, view, duration, overrides)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        rig.close()
+    return 0
+
+
+def _view(cfg: ViewConfig, rig: Rig, view, duration, overrides) -> None:
     requests: list[str] = []
     lock = threading.Lock()
 
@@ -79,42 +80,33 @@ def run(cfg: ViewConfig) -> int:
 
     shown = None
     if view is not None and ViewSpec.parse(view).kind != "none":
-        shown = open_view(view, cfg.task, cfg.robot, layout_of(u), overrides, on_event=request, say=print,
-                          hand_size=size)  # fmt: skip
+        shown = open_view(view, cfg.task, cfg.robot, layout_of(rig.u), overrides, on_event=request, say=print,
+                          hand_size=rig.profile.size())  # fmt: skip
         shown.wait_ready()
-    glove = track = None
     try:
-        glove = open_glove(cfg.glove, motion="gestures")
-        if wrist.kind != SCRIPTED:
-            source = open_wrist(wrist, cfg.wrist_camera, cfg.marker_mm)
-            track = WristTrack(source, marker_in_palm=mounting(source, say=print)).open()
-        env.reset(seed=0)
+        glove = rig.wear().glove.open()
+        rig.env.reset(seed=0)
         if glove.latest(wait_s=FIRST_POSE_S) is None:
             raise GloverecError(f"no hand pose from {cfg.glove} in {FIRST_POSE_S:.0f} s: is it a glove, sending?")
-        session = _Session(env, retarget, glove, shown, lock, requests, cfg, overrides, track)
+        session = _Session(rig, shown, lock, requests, cfg, overrides)
         steps = session.run(duration, cfg.video)
         if cfg.video:
             print(f"view: {steps} frames of {cfg.robot} ({cfg.task}) to {cfg.video}, {glove.frames} glove frames"
-                  + (f", wrist tracked {session.tracked_share:.0%}" if track is not None else ""))  # fmt: skip
-    except KeyboardInterrupt:
-        pass
+                  + (f", wrist tracked {session.tracked_share:.0%}" if rig.wrist is not None else ""))  # fmt: skip
     finally:
-        for opened in (glove, track, shown):
-            if opened is not None:
-                opened.close()
-        env.close()
-    return 0
+        if shown is not None:
+            shown.close()
 
 
 class _Session:
     """The loop: glove -> retarget -> env, at the task's control rate, shown and/or filmed."""
 
-    def __init__(self, env, retarget, glove, view, lock, requests, cfg, options, wrist=None):
-        self.env, self.u, self.retarget, self.glove, self.view = env, env.unwrapped, retarget, glove, view
-        self.lock, self.requests, self.cfg, self.options = lock, requests, cfg, options
+    def __init__(self, rig: Rig, view, lock, requests, cfg, options):
+        self.rig, self.env, self.u, self.retarget, self.glove = rig, rig.env, rig.u, rig.retarget, rig.glove
+        self.view, self.lock, self.requests, self.cfg, self.options = view, lock, requests, cfg, options
         self.seed, self._status, self._status_at = 0, {}, -1.0
-        self.wrist = wrist  # a WristTrack (None: the task scripts the base)
-        self.source = WristConfig.parse(cfg.wrist).kind
+        self.wrist = rig.wrist  # a WristTrack (None: the task scripts the base)
+        self.source = rig.wrist_config.kind
         self.frames = self.untracked = 0  # the wrist's, since it was zeroed
         self._zero_wrist()
 
@@ -131,7 +123,7 @@ class _Session:
             time.sleep(0.02)
             return time.monotonic()
 
-        self.wrist.zero(time.monotonic(), self.u.palm_pose()[0], self.glove.latest().palm, wait)
+        self.rig.zero_wrist(time.monotonic(), self.glove.latest().palm, wait)
         self.frames = self.untracked = 0
 
     def run(self, duration, video: str | None) -> int:

@@ -1,6 +1,6 @@
 """Run scripted demonstrations through retargeting into an environment and score them.
 
-    python -m recorder.demonstrator.rollout --task grasp --robot shadow --episodes 50 [--via glove]
+    python -m recorder.rig.rollout --task grasp --robot shadow --episodes 50 [--via glove]
         [--retarget ik|pinch]
 
 ``via="direct"``: the demonstrator's joint angles and palm orientation go straight to the retargeter.
@@ -9,6 +9,11 @@ noise) is turned back into joint angles as a host would (kinematics.joint_angles
 quats[0]) and read ``latency_s`` late. ``via="glove+marker"`` (a free-wrist task): the same glove, and the wrist
 from an emulated webcam filming the glove's marker (recorder/wrist/emulated.py) fused with the glove's palm
 (recorder/wrist/fusion.py). Prints one JSON object: success rate and per-episode details.
+
+The session's parts come from the rig (recorder/rig/rig.py): the task environment, the retargeter and the
+demonstrator (``success_rate``), the wrist track and its zero (``via="glove+marker"``). The glove here is a model of
+one, not a link: the demonstration's frames synthesised as the host would fuse them, with no pseudo-terminal, so
+that fifty episodes take seconds (`gloverec record --glove emulator` runs the whole path).
 """
 
 from __future__ import annotations
@@ -19,13 +24,15 @@ import time
 
 import numpy as np
 
-import envs  # noqa: F401  (registers the environments)
 from recorder import GloverecError
 from recorder.config import add_option
 from recorder.demonstrator import make_demonstrator
 from recorder.emulator.glove import SyntheticGlove
 from recorder.hand.kinematics import joint_angles_from_relative
-from recorder.retarget import MODES, Retargeter
+from recorder.retarget import MODES
+from recorder.rig.config import SessionConfig
+from recorder.rig.rig import Rig, wrist_track, zero_wrist
+from recorder.wrist.track import EmulatedMarker
 
 VIA = ("direct", "glove", "glove+marker")
 
@@ -55,16 +62,13 @@ class _TrackedWrist:
     and fused with the glove's palm as `gloverec record --wrist marker:emulated` does (recorder/wrist/track.py),
     on the glove samples' clock; the wearer holds still in the start pose until the first frame has come."""
 
-    def __init__(self, glove: _GloveReader, motion, camera, start):
-        from recorder.wrist.fusion import FusionConfig
-        from recorder.wrist.track import EmulatedMarker, WristTrack
-
+    def __init__(self, glove: _GloveReader, motion, camera, env):
         def truth(t: float):
             b = motion.at([t])
             return b.palm_pos[0], b.palm_quat[0]
 
         self.glove, self.lost = glove, 0
-        self.track = WristTrack(EmulatedMarker(truth, camera), FusionConfig(latency_s=camera.latency_s))
+        self.track = wrist_track(EmulatedMarker(truth, camera))  # fused with the camera's latency
         waited = iter(np.arange(1, 31) / camera.fps)
 
         def wait() -> float:
@@ -73,7 +77,7 @@ class _TrackedWrist:
                 raise GloverecError("the emulated webcam did not see the marker at the start pose in 1 s")
             return float(t)
 
-        self.track.zero(0.0, start, glove(0.0)[1], wait=wait)
+        zero_wrist(self.track, env, 0.0, glove(0.0)[1], wait)
 
     def __call__(self, t: float):
         angles, palm, _ = self.glove(t)
@@ -109,7 +113,7 @@ def run_episode(
 
             camera = EmulatedCamera()
         try:
-            read = _TrackedWrist(_GloveReader(motion, seed, latency_s, noise_deg), motion, camera, u.palm_pose()[0])
+            read = _TrackedWrist(_GloveReader(motion, seed, latency_s, noise_deg), motion, camera, env)
         except GloverecError as exc:  # the wearer cannot start: a failed take, not a failed run
             return {"seed": seed, "success": False, "steps": 0, "error": str(exc)}
     elif via == "direct":
@@ -148,17 +152,22 @@ def success_rate(
     demonstrator: str = "scripted", failure_rate: float | None = None, **env_kwargs,
 ) -> dict:  # fmt: skip
 
-    demo = make_demonstrator(task, demonstrator, failure_rate)
-    env = envs.make(task, robot, **env_kwargs)
-    r = Retargeter.for_env(env, mode)
+    rig = Rig(
+        SessionConfig(task=task, robot=robot, retarget=mode),
+        options=env_kwargs,
+        seed=None,
+        demonstrator=demonstrator,
+        failure_rate=failure_rate,
+    )
+    env, r = rig.env, rig.retarget
     t0 = time.perf_counter()
     camera = None
     if via == "glove+marker":
         from recorder.wrist.emulated import EmulatedCamera
 
         camera = EmulatedCamera()
-    runs = [run_episode(env, r, seed0 + k, via, demonstrator=demo, camera=camera) for k in range(episodes)]
-    env.close()
+    runs = [run_episode(env, r, seed0 + k, via, demonstrator=rig.demonstrator, camera=camera) for k in range(episodes)]
+    rig.close()
     if camera is not None:
         camera.close()
     ok = sum(r["success"] for r in runs)

@@ -93,7 +93,7 @@ def test_yaml_overrides_defaults_and_flags_override_yaml(tmp_path):
     [
         ("fps: 0\n", "rec.yaml: fps: Input should be greater than 0"),
         ("fps: fast\n", "rec.yaml: fps: Input should be a valid integer"),
-        ("frames_per_second: 30\n", "rec.yaml: frames_per_second: unknown key; valid: glove, robot, task, fps"),
+        ("frames_per_second: 30\n", "rec.yaml: frames_per_second: unknown key; valid: glove, robot, task, retarget"),
         ("glove: {kind: serial}\n", "rec.yaml: glove: a serial glove needs an address"),
         ("glove: {kind: serial, address: x, speed: 3}\n", "rec.yaml: glove.speed: unknown key; valid: kind, address"),
         ("glove: 'udp:host:99999'\n", "bad UDP glove"),

@@ -5,7 +5,6 @@ saves it where `gloverec record --wrist` takes it; a session log keeps the mount
 mounting file is one line."""
 
 import json
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -84,14 +83,14 @@ def test_calibrate_finds_the_emulated_marker_s_mounting(calibrated):
 
 
 def _open_wrist(wrist: str, said: list, **options):
-    """The WristTrack that `gloverec record --wrist WRIST` opens (Recorder._open_wrist), with no recording."""
+    """The WristTrack that `gloverec record --wrist WRIST` opens (the rig's, recorder/rig/rig.py), with no
+    recording."""
     from recorder.record.config import RecordConfig
-    from recorder.record.recorder import Recorder
+    from recorder.rig.rig import open_wrist_track
 
     cfg = RecordConfig.load(task="relocate", wrist=wrist, **options)
     palm = lambda t: (np.zeros(3), quat.IDENTITY.copy())  # noqa: E731  (the emulated wearer's: nothing records here)
-    recorder = SimpleNamespace(cfg=cfg, _say=said.append, _demo_palm=palm)
-    return Recorder._open_wrist(recorder)
+    return open_wrist_track(cfg, fast=cfg.is_fast, wearer=palm, say=said.append)
 
 
 def test_record_takes_the_saved_mounting(calibrated, monkeypatch, tmp_path):

@@ -27,14 +27,12 @@ import numpy as np
 
 from recorder import GloverecError, quat
 from recorder.demonstrator.motion import DemoMotion
-from recorder.demonstrator.performer import Performer
 from recorder.glove.config import EMULATOR, GloveConfig
-from recorder.glove.glove import make_glove
 from recorder.hand.gestures import GESTURES
 from recorder.paths import calibration_dir
+from recorder.rig.rig import wear_glove, wrist_track
 from recorder.wrist import open_wrist
 from recorder.wrist.config import SCRIPTED, WristConfig
-from recorder.wrist.fusion import FusionConfig
 from recorder.wrist.mounting import (
     AXES,
     MIN_SAMPLES,
@@ -45,7 +43,6 @@ from recorder.wrist.mounting import (
     solve_mount,
     turns,
 )
-from recorder.wrist.track import WristTrack
 
 DURATION_S = 15.0
 FRAME_S = 1.0 / 30.0  # the loop's step faster than real time (the emulated camera's frame period)
@@ -121,13 +118,12 @@ def calibrate_mount(glove: str, wrist: str, duration_s: float = DURATION_S, came
                             "--realtime")  # fmt: skip
     fast = (emulated_wearer and not realtime) or glove_config.kind == "mcap"
     options = {"fast": fast, "calibration_dir": folder, "say": lambda text: print(text, file=out, flush=True)}
-    performer = Performer(glove_config, **options) if emulated_wearer else None  # it wears the emulated glove
-    g = performer.glove if performer is not None else make_glove(glove_config, **options)
+    g, performer = wear_glove(glove_config, performer=emulated_wearer, **options)  # the performer: the emulated one
     try:
         source = open_wrist(wrist_config, camera_file, marker_mm, paced=not fast, glove=glove_config,
                             wearer=performer.performed if performer is not None else None)  # fmt: skip
-        latency = float(getattr(source, "latency_s", 0.0))  # a log's: its recording's; the emulated webcam's
-        track = WristTrack(source, FusionConfig(latency_s=latency))
+        track = wrist_track(source)  # the marker flat on the back of the hand: what the step finds out
+        latency = track.fusion.config.latency_s  # a log's: its recording's; the emulated webcam's
     except BaseException:
         g.close()
         raise

@@ -1,6 +1,7 @@
 """GloverecGlove: gloverec's data glove as a LeRobot ``Teleoperator`` (`--teleop.type=gloverec_glove`).
 
-The glove opens as every gloverec command opens it (recorder.glove.glove.open_glove): any port, and any wire
+The session is built as every gloverec command builds it (recorder/rig/rig.py, with no task: the teleoperator
+drives a robot): the wearer's hand profile, the retargeter fitted to it, and the glove: any port, and any wire
 format, fused into a HandPose on the host where the glove sends raw IMU frames (with its saved calibration). Each
 ``get_action`` takes the newest pose and retargets it onto the robot it drives: a gloverec robot hand (the
 ``joint`` map or fingertip ``ik``, as `gloverec record` does; the keys are gloverec_sim's action keys) or a real
@@ -24,12 +25,13 @@ from lerobot_teleoperator_gloverec.config_gloverec_glove import GloverecGloveCon
 from recorder.calibrate.procedure import Calibrator
 from recorder.config import ConfigError
 from recorder.glove.config import GloveConfig
-from recorder.glove.glove import Glove, open_glove
+from recorder.glove.glove import Glove
 from recorder.hand.pose import HandPose
-from recorder.hand.profile import HandProfile, wearer_profile
 from recorder.paths import calibration_dir
 from recorder.retarget import Retargeter
 from recorder.retarget.motor_map import MotorMap, load_motor_map, motor_map_names
+from recorder.rig.config import SessionConfig
+from recorder.rig.rig import Rig
 from recorder.speech import warn_if_prompts_will_fail
 
 logger = logging.getLogger(__name__)
@@ -38,10 +40,11 @@ STALE_MIN_S = 0.05  # a loaded machine delays a healthy glove's frames by tens o
 
 
 class _RobotHand:
-    """A gloverec robot hand driven through the Retargeter: gloverec_sim's action keys."""
+    """A gloverec robot hand driven through the rig's Retargeter (its base turned by the palm): gloverec_sim's
+    action keys."""
 
-    def __init__(self, robot: str, mode: str, profile: HandProfile):
-        self.retarget = Retargeter(robot, mode, base_rotation=True, hand_size=profile.size())
+    def __init__(self, retarget: Retargeter):
+        self.retarget = retarget
         self.names = action_names(self.retarget.robot, base_rotation=True)
 
     def __call__(self, pose: HandPose) -> dict[str, float]:
@@ -49,9 +52,9 @@ class _RobotHand:
         return dict(zip(self.names, action.tolist()))
 
 
-def _target(robot: str, mode: str, profile: HandProfile) -> _RobotHand | MotorMap:
-    if robot in robot_names():
-        return _RobotHand(robot, mode, profile)
+def _target(robot: str, rig: Rig) -> _RobotHand | MotorMap:
+    if rig.retarget is not None:  # a gloverec robot hand
+        return _RobotHand(rig.retarget)
     if robot in motor_map_names():
         return load_motor_map(robot)
     raise ConfigError(
@@ -70,9 +73,12 @@ class GloverecGlove(Teleoperator):
         self.config = config
         self.glove_config = GloveConfig.parse(config.port, mode=config.emulator_output)  # a bad port: one line
         self.glove_id = _hex(config.glove_id)
+        session = SessionConfig(glove=self.glove_config, robot=config.robot, retarget=config.retarget,
+                                wearer=config.wearer)  # fmt: skip
         # a missing or impossible profile: one line, before any glove opens (motor maps take angles, not sizes)
-        self.profile = wearer_profile(config.wearer, config.calibration_dir)
-        self.target = _target(config.robot, config.retarget, self.profile)
+        self.rig = Rig(session, env=False, folder=config.calibration_dir)
+        self.profile = self.rig.profile
+        self.target = _target(config.robot, self.rig)
         self.glove: Glove | None = None
         self._action: dict[str, float] | None = None
         self._fresh = 0.0  # host time at which the glove sampled the newest pose taken
@@ -103,11 +109,8 @@ class GloverecGlove(Teleoperator):
             self.calibrate()
 
     def _open(self) -> Glove:
-        glove = open_glove(
-            self.glove_config,
-            motion=self.config.emulator_motion,
-            calibration_dir=self.config.calibration_dir,
-        )
+        glove = self.rig.wear(motion=self.config.emulator_motion, calibration_dir=self.config.calibration_dir).glove
+        glove.open()
         pose = glove.latest(wait_s=self.config.first_pose_s)
         if pose is None:
             glove.close()

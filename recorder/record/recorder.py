@@ -115,6 +115,7 @@ class Recorder:
                                 "(only the emulator's demonstrator moves a scripted one)")  # fmt: skip
         if wrist.follows_wearer and self.demonstrator is None:
             raise GloverecError(f"--wrist {wrist.kind} films the emulated wearer: record with --glove emulator")
+        self.demo = None  # the demonstration being performed (its plan)
         if (agent is None) != (cfg.policy is None):
             raise GloverecError("a takeover recording needs its policy loaded: record it with `gloverec record`")
         self.agent = agent(self.env) if agent is not None else None  # a wrong policy: one line, before any file

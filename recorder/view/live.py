@@ -3,7 +3,8 @@ native, web or rerun) or rendered to a video.
 
     gloverec view --glove emulator|serial:PORT|udp:PORT|mcap:FILE --robot NAME [--task pose|grasp]
                   [--retarget joint|ik|pinch] [--wearer NAME] [--view native|web[:PORT]|rerun[:MODE]] [--video FILE.mp4]
-                  [--duration S] [--wrist udp:PORT|marker:CAMERA [--wrist-camera FILE.json] [--marker-mm 40]]
+                  [--duration S] [--wrist udp:PORT|marker:CAMERA [--wrist-camera FILE.json] [--wrist-mount FILE.json]
+                  [--marker-mm 40]]
 
 The glove's newest HandPose (any glove: pose, compact, or raw frames fused on the host) is retargeted and steps
 the task at its control rate. The view shows what `gloverec record` shows: the scene, the target gesture as a
@@ -18,7 +19,9 @@ source, fusion with the palm IMU and mapping; zeroed as the view starts, at each
 and the view shows the tracked palm, its tracking and the workspace's bounds (recorder/view/wrist.py). A free-wrist
 task (relocate) has no base without one, and says so in one line.
 
-The command's flags: ViewConfig (recorder/view/config.py), generated in recorder/view/cli.py.
+The session (the task with its live settings, the wearer's hand and the retargeter, the glove, the wrist track and
+its zero) is built by the rig (recorder/rig/rig.py), as `gloverec record` builds its own. The command's flags:
+ViewConfig (recorder/view/config.py), generated in recorder/view/cli.py.
 """
 
 from __future__ import annotations

@@ -331,6 +331,16 @@ def docs_run(shared):
     return get
 
 
+def pytest_configure(config):
+    """Before parallel workers start (in the process that starts them): host fusion's numba kernels compiled once
+    into their on-disk cache, so that the workers load them instead of each compiling the same kernels at once
+    (cold, three workers compiling together cost minutes of CPU on two cores)."""
+    if getattr(config, "workerinput", None) is None and config.getoption("numprocesses", default=None):
+        from recorder.fusion.host import compile_every_filter
+
+        compile_every_filter()
+
+
 # ---------------------------------------------------------------- marks: process, serial (pyproject.toml)
 
 SPAWNING_FIXTURES = {"emulator", "docs_run", "display"}  # a test that asks for one starts a process

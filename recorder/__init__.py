@@ -2,8 +2,9 @@
 
 Data flows one way through the subpackages, which are layers (docs/decisions.md; `lint-imports` checks them):
 ``protocol`` (bytes <-> frames) -> ``link``, ``log`` (ports, threads, clocks; session logs) -> ``hand`` (the
-16-segment hand model, HandPose) -> ``fusion`` -> (envs.robots) -> ``retarget`` -> (envs.tasks) -> ``emulator``,
-``demonstrator`` -> ``glove`` (open_glove) -> ``view`` -> ``record``, ``calibrate``, ``hub`` -> (policies) -> ``cli``.
+16-segment hand model, HandPose) -> ``fusion`` -> ``glove`` (open_glove) -> (envs.robots) -> ``retarget`` ->
+(envs.tasks) -> ``emulator``, ``demonstrator`` (the emulated wearer) -> ``view`` -> ``record``, ``calibrate``,
+``hub`` -> (policies) -> ``cli``.
 """
 
 __version__ = "0.1.0"

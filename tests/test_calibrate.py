@@ -13,12 +13,17 @@ import pytest
 
 from conftest import cli, gloverec, wait_for
 from recorder import GloverecError
+from recorder.demonstrator.motion import DemoMotion
+from recorder.demonstrator.performer import Performer
 from recorder.emulator import procedure as emulated
 from recorder.emulator.emulator import GLOVE_ID, Emulator
 from recorder.fusion.session import SessionFusion, load_config, load_fusion
+from recorder.glove.config import GloveConfig
 from recorder.hand.calibration import GloveCalibration
+from recorder.hand.gestures import GESTURES
 from recorder.hand.kinematics import JOINTS
 from recorder.log.playback import log_calibration
+from recorder.record.control import Control
 
 G = 9.80665
 
@@ -297,12 +302,6 @@ def test_rerecord_fuses_with_the_logs_calibration(recordings, tmp_path):
 def test_the_reset_key_and_the_button_retake_the_reference_pose(calibrated):
     """The emulated wearer spreads the fingers and holds; `zero` on stdin then makes that the reference pose:
     the fused abductions jump from the spread hand's to the rest pose's, and C changes."""
-    from recorder.demonstrator.motion import DemoMotion
-    from recorder.glove.config import GloveConfig
-    from recorder.glove.glove import make_glove
-    from recorder.hand.gestures import GESTURES
-    from recorder.record.control import Control
-
     folder, _ = calibrated
     spread = GESTURES["open"].copy()
     abd = [JOINTS.index(f"{f}_mcp_abd") for f in ("index", "ring", "pinky")]
@@ -311,13 +310,14 @@ def test_the_reset_key_and_the_button_retake_the_reference_pose(calibrated):
     control = Control(stdin=os.fdopen(r))
     session = SessionFusion(calibration_dir=folder)
     config = GloveConfig.parse("emulator", mode="raw", seed=1)
-    glove = make_glove(config, fast=True, motion="demonstrations", fusion=session)
+    performer = Performer(config, fast=True, fusion=session)
+    glove = performer.glove
     control.on_reset(glove.reset_pose)
     glove.open()
     try:
         assert session.record["calibrated"]
         assert glove.wait_past(float("-inf")) and session.started  # the first pose: fusion started at rest
-        glove.demonstrate(DemoMotion([0.0, 0.6], [GESTURES["open"], spread], np.random.default_rng(0)))
+        performer.demonstrate(DemoMotion([0.0, 0.6], [GESTURES["open"], spread], np.random.default_rng(0)))
         end = time.monotonic() + 20
         while not glove.buttons and time.monotonic() < end:  # the demonstrator presses the button at its start
             glove.wait_past(glove.now() + 0.05)

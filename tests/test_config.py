@@ -10,6 +10,7 @@ from conftest import cli
 from policies.config import TrainConfig
 from recorder import config
 from recorder.config import ConfigError
+from recorder.glove import config as glove
 from recorder.glove.config import GloveConfig, LinkConfig
 from recorder.paths import calibration_dir, config_file, hub_dir
 from recorder.record.config import RecordConfig
@@ -142,6 +143,18 @@ specs = st.one_of(
 def test_glove_specs_round_trip(spec):
     glove = GloveConfig.parse(spec)
     assert str(glove) == spec and GloveConfig.parse(str(glove)) == glove
+
+
+def test_the_emulator_is_a_registered_glove_source():
+    """`emulator` is a glove source like the others (recorder/glove/sources.py): listed first, no device, written
+    without an address (one is a one-line error), its name not a plugin's to take."""
+    source = glove.glove_source("emulator")
+    assert glove.kinds()[:4] == ("emulator", "serial", "udp", "mcap") and not source.address and not source.device
+    assert glove.specs().startswith("emulator, serial:PORT") and str(GloveConfig()) == "emulator"
+    with pytest.raises(ConfigError, match="^bad glove 'emulator:x': expected emulator, serial:PORT"):
+        GloveConfig.parse("emulator:x")
+    with pytest.raises(ConfigError, match="glove source 'emulator' is registered already"):
+        glove.register_glove_source("emulator", device=False, address=False)(lambda config, realtime, **options: None)
 
 
 @given(st.text(max_size=12))

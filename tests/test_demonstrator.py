@@ -4,10 +4,13 @@ import numpy as np
 import pytest
 
 import envs
-from recorder import quat
+from recorder import GloverecError, quat
 from recorder.demonstrator import DemoMotion, make_demonstrator
+from recorder.demonstrator.performer import Performer
 from recorder.demonstrator.rollout import run_episode
 from recorder.emulator.glove import SyntheticGlove
+from recorder.glove.config import GloveConfig
+from recorder.glove.glove import make_glove
 from recorder.hand.gestures import GESTURES
 from recorder.retarget import Retargeter
 
@@ -21,6 +24,15 @@ def test_demonstrator_solves_the_task(task, robot):
     assert all(x["success"] for x in results), results
     if task == "pose":  # terminates as soon as the pose is held
         assert all(x["steps"] < env.unwrapped.config.episode_s * env.unwrapped.config.control_hz for x in results)
+
+
+def test_only_a_performer_makes_the_emulated_wearer_perform():
+    """The emulated glove performs demonstrations when a Performer wears it (recorder/demonstrator/performer.py);
+    opened on its own with that motion, or a performer on a glove with another: one-line errors."""
+    with pytest.raises(GloverecError, match="performs demonstrations only for a demonstrator"):
+        make_glove(GloveConfig.parse("emulator", motion="demonstrations"))
+    with pytest.raises(GloverecError, match="only the emulated glove with motion=demonstrations performs"):
+        Performer(GloveConfig.parse("emulator", motion="gestures"))
 
 
 @pytest.mark.parametrize("task", ["pose", "grasp"])

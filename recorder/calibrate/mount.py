@@ -10,9 +10,10 @@ palm has turned about each axis and what to do next. The pairs are solved by rec
 record --wrist` finds it.
 
 With no hardware, ``--glove emulator --wrist marker:emulated[:RX,RY,RZ]``: the emulated wearer performs the moves
-(``mount_motion``, a scripted demonstration through ``Glove.demonstrate``) and the emulated webcam films its palm
-as the emulator performs it (``Glove.performed``), with the marker glued off by RX, RY, RZ (degrees, a rotation
-vector in the palm's axes). The emulator then runs faster than real time, the loop stepping at the camera's rate.
+(``mount_motion``, a scripted demonstration through ``Performer.demonstrate``) and the emulated webcam films its
+palm as the emulator performs it (``Performer.performed``), with the marker glued off by RX, RY, RZ (degrees, a
+rotation vector in the palm's axes). The emulator then runs faster than real time, the loop stepping at the
+camera's rate.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import numpy as np
 
 from recorder import GloverecError, quat
 from recorder.demonstrator.motion import DemoMotion
+from recorder.demonstrator.performer import Performer
 from recorder.glove.config import EMULATOR, GloveConfig
 from recorder.glove.glove import make_glove
 from recorder.hand.gestures import GESTURES
@@ -118,11 +120,12 @@ def calibrate_mount(glove: str, wrist: str, duration_s: float = DURATION_S, came
         raise GloverecError(f"--wrist {wrist_config.kind} films the emulated wearer faster than real time: drop "
                             "--realtime")  # fmt: skip
     fast = (emulated_wearer and not realtime) or glove_config.kind == "mcap"
-    g = make_glove(glove_config, fast=fast, motion="demonstrations", calibration_dir=folder,
-                   say=lambda text: print(text, file=out, flush=True))  # fmt: skip
+    options = {"fast": fast, "calibration_dir": folder, "say": lambda text: print(text, file=out, flush=True)}
+    performer = Performer(glove_config, **options) if emulated_wearer else None  # it wears the emulated glove
+    g = performer.glove if performer is not None else make_glove(glove_config, **options)
     try:
         source = open_wrist(wrist_config, camera_file, marker_mm, paced=not fast, glove=glove_config,
-                            wearer=g.performed if emulated_wearer else None)  # fmt: skip
+                            wearer=performer.performed if performer is not None else None)  # fmt: skip
         latency = float(getattr(source, "latency_s", 0.0))  # a log's: its recording's; the emulated webcam's
         track = WristTrack(source, FusionConfig(latency_s=latency))
     except BaseException:
@@ -134,8 +137,8 @@ def calibrate_mount(glove: str, wrist: str, duration_s: float = DURATION_S, came
     try:
         g.open()
         track.open()
-        if emulated_wearer:
-            g.demonstrate(mount_motion(duration_s, glove_config.seed, glove_config.rate_hz))
+        if performer is not None:
+            performer.demonstrate(mount_motion(duration_s, glove_config.seed, glove_config.rate_hz))
         who = "the emulated wearer does" if emulated_wearer else "do"
         print(f"hold the hand in the tracker's view and, for {duration_s:g} s, tilt it forward and back, left and "
               f"right, and turn it ({who}: {MIN_TURN_DEG:.0f}° about two axes is needed)", file=out,

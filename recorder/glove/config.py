@@ -6,22 +6,24 @@
     udp:9000, udp:HOST:9000     a wireless glove or a bridge, one datagram per frame
     mcap:session.mcap           a session log played back as a glove
 
-Every kind but the emulator is a registered glove source (``@register_glove_source``: its name, whether it is a
-device on a wire that runs in real time, how to check its address and how to open its link); the built-in
-serial, udp and mcap are registered in recorder/glove/sources.py, others come from plugins (recorder/plugins.py;
-docs/recording.md, "Adding a glove source"). This module imports no link: a source's ``opener`` imports what it
-opens when it runs.
+Every kind is a registered glove source (``@register_glove_source``: its name, whether it is a device on a wire
+that runs in real time, whether it takes an address and how to check it, and how to open its link); the built-in
+emulator, serial, udp and mcap are registered in recorder/glove/sources.py, others come from plugins
+(recorder/plugins.py; docs/recording.md, "Adding a glove source"). This module imports no link: a source's
+``opener`` imports what it opens when it runs, and one in a layer above this one (the emulator's) is named as
+"module:function", imported when a glove of its kind opens.
 """
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Annotated, Literal
 
 from recorder.config import STRICT, ConfigError, Positive, setting
 
-EMULATOR = "emulator"  # built in: the emulator runs in this process (recorder/glove/glove.py plugs it)
+EMULATOR = "emulator"  # the default kind: the built-in emulator, in this process (recorder/emulator/source.py)
 EMULATOR_MODES = ("pose", "raw", "compact", "json")
 EMULATOR_MOTIONS = ("gestures", "random", "demonstrations", "calibration", "calibration_pinch")
 PROTOCOLS = ("auto", "binary", "json")
@@ -29,57 +31,83 @@ PROTOCOLS = ("auto", "binary", "json")
 
 @dataclass(frozen=True)
 class GloveSource:
-    """A kind of glove that ``--glove KIND:ADDRESS`` opens. ``opener(config, realtime, **link_options)`` returns
-    the unopened link (a recorder.link.base.GloveSource: the frames, a reader thread, reconnects); ``device``:
-    the glove is on a wire and runs in real time (serial, UDP), else it can play faster (a log); ``check``
-    raises ConfigError for a bad address; ``spec``: how it is written, for help and errors."""
+    """A kind of glove that ``--glove KIND:ADDRESS`` (``--glove KIND`` when it takes no ``address``) opens.
+    ``opener(config, realtime, **link_options)`` returns the unopened link (a recorder.link.base.GloveSource: the
+    frames, a reader thread, reconnects), or is its "module:function" name; ``device``: the glove is on a wire and
+    runs in real time (serial, UDP), else it can play faster (a log, the emulator); ``check`` raises ConfigError
+    for a bad address; ``spec``: how it is written, for help and errors."""
 
     name: str
-    opener: Callable
+    opener: Callable | str
     device: bool
     spec: str
     check: Callable[[str], None] | None = None
+    address: bool = True
+
+    def link(self, config: GloveConfig, realtime: bool = True, **options):
+        """The opener's unopened link for ``config`` (an opener named by a string is imported now)."""
+        opener = self.opener
+        if isinstance(opener, str):
+            module, _, name = opener.partition(":")
+            opener = getattr(importlib.import_module(module), name)
+        return opener(config, realtime, **options)
 
 
 _SOURCES: dict[str, GloveSource] = {}
 
 
-def register_glove_source(name: str, *, device: bool, spec: str | None = None, check=None):
-    """Decorator of a source's ``opener(config, realtime, **link_options)``: glove kind ``name``."""
+def register_glove_source(name: str, *, device: bool, spec: str | None = None, check=None, address: bool = True):
+    """Decorator of a source's ``opener(config, realtime, **link_options)`` (or called on its "module:function"
+    name): glove kind ``name``; ``address=False``: written as the name alone (``emulator``)."""
 
     def register(opener):
-        if name == EMULATOR or (name in _SOURCES and _SOURCES[name].opener.__qualname__ != opener.__qualname__):
+        if name in _SOURCES and _qualname(_SOURCES[name].opener) != _qualname(opener):
             raise ConfigError(f"glove source {name!r} is registered already")
-        _SOURCES[name] = GloveSource(name, opener, device, spec or f"{name}:ADDRESS", check)
+        _SOURCES[name] = GloveSource(name, opener, device, spec or (f"{name}:ADDRESS" if address else name), check,
+                                     address)  # fmt: skip
         return opener
 
     return register
 
 
+def _qualname(opener: Callable | str) -> str:
+    return opener if isinstance(opener, str) else opener.__qualname__
+
+
 def glove_source(kind: str) -> GloveSource:
     """The registered source ``kind``; an unknown one: one-line ConfigError listing the kinds."""
-    _load()
-    if kind not in _SOURCES:
+    source = _registered(kind)
+    if source is None:
         raise ConfigError(f"unknown glove kind {kind!r}; valid: {', '.join(kinds())}")
-    return _SOURCES[kind]
+    return source
+
+
+def _registered(kind: str) -> GloveSource | None:
+    """Source ``kind`` or None; the plugins load only for a kind that is not built in."""
+    _load(plugins=False)
+    if kind not in _SOURCES:
+        _load()
+    return _SOURCES.get(kind)
 
 
 def kinds() -> tuple[str, ...]:
     _load()
-    return (EMULATOR, *_SOURCES)
+    return tuple(_SOURCES)
 
 
 def specs() -> str:
     """How gloves are written, for help texts and errors."""
     _load()
-    return ", ".join([EMULATOR] + [s.spec for s in _SOURCES.values()])
+    return ", ".join(s.spec for s in _SOURCES.values())
 
 
-def _load() -> None:
-    import recorder.glove.sources  # noqa: F401  (the built-in sources register on import)
-    from recorder.plugins import load_plugins
+def _load(plugins: bool = True) -> None:
+    import recorder.glove.sources  # noqa: F401  (the built-in sources register on import; they import this module)
 
-    load_plugins()
+    if plugins:
+        from recorder.plugins import load_plugins  # importlib.metadata (17 ms): not at start-up
+
+        load_plugins()
 
 
 SPECS = "emulator, serial:PORT (or a device path), udp:PORT, udp:HOST:PORT, mcap:FILE, or a plugin's KIND:ADDRESS"
@@ -87,12 +115,13 @@ SPECS = "emulator, serial:PORT (or a device path), udp:PORT, udp:HOST:PORT, mcap
 
 @dataclass(frozen=True)
 class GloveConfig:
-    """A glove. ``kind``: emulator or a registered source; ``address``: the device path (serial), HOST:PORT (udp),
-    the log file (mcap). The emulator's ``rate_hz``, output ``mode`` (the wire format, the protocol's Mode; its
-    flag is ``--output``) and ``motion``: the wearer moves between ``gestures``, moves ``random``ly, performs the
-    scripted ``demonstrations`` of the task being recorded, or the ``calibration`` steps (with the pinch step:
-    ``calibration_pinch``; None: what the command needs). ``seed`` seeds the emulated motion. `gloverec emulate`'s
-    flags are these fields' (``rate_hz``, ``mode``, ``motion``, ``seed``)."""
+    """A glove. ``kind``: a registered source (the emulator by default); ``address``: the device path (serial),
+    HOST:PORT (udp), the log file (mcap), none for the emulator. The emulator's ``rate_hz``, output ``mode`` (the
+    wire format, the protocol's Mode; its flag is ``--output``) and ``motion``: the wearer moves between
+    ``gestures``, moves ``random``ly, performs the scripted ``demonstrations`` of the task being recorded
+    (recorder/demonstrator/performer.py), or the ``calibration`` steps (with the pinch step: ``calibration_pinch``;
+    None: what the command needs). ``seed`` seeds the emulated motion. `gloverec emulate`'s flags are these fields'
+    (``rate_hz``, ``mode``, ``motion``, ``seed``)."""
 
     __pydantic_config__ = STRICT
 
@@ -126,12 +155,11 @@ class GloveConfig:
                 raise ConfigError(f"unknown glove {name} {getattr(self, name)!r}; valid: {', '.join(valid)}")
         if self.motion is not None and self.motion not in EMULATOR_MOTIONS:
             raise ConfigError(f"unknown emulator motion {self.motion!r}; valid: {', '.join(EMULATOR_MOTIONS)}")
-        if self.kind != EMULATOR:
-            source = glove_source(self.kind)
-            if not self.address:
-                raise ConfigError(f"a {self.kind} glove needs an address: {source.spec}")
-            if source.check is not None:
-                source.check(self.address)  # checked now, not when it opens
+        source = glove_source(self.kind)
+        if source.address and not self.address:
+            raise ConfigError(f"a {self.kind} glove needs an address: {source.spec}")
+        if source.address and source.check is not None:
+            source.check(self.address)  # checked now, not when it opens
         if not self.rate_hz > 0 or not self.baudrate > 0:
             raise ConfigError("the glove's rate and baud rate must be positive")
 
@@ -140,10 +168,13 @@ class GloveConfig:
         """The fields a spec string sets: {"kind": ..., "address": ...}."""
         text = str(spec).strip()
         kind, sep, rest = text.partition(":")
-        if text == EMULATOR:
-            return {"kind": EMULATOR, "address": ""}
-        if sep and kind in kinds():
-            if not rest or kind == EMULATOR:
+        source = _registered(kind) if kind else None
+        if source is not None and not source.address:  # the emulator: its name alone
+            if sep:
+                raise ConfigError(f"bad glove {text!r}: expected {specs()}")
+            return {"kind": kind, "address": ""}
+        if source is not None and sep:
+            if not rest:
                 raise ConfigError(f"bad glove {text!r}: expected {specs()}")
             return {"kind": kind, "address": rest}
         if not text or (sep and not text.startswith(("/", "."))):  # KIND:... with an unknown kind
@@ -158,12 +189,12 @@ class GloveConfig:
         return cls(**{**cls.decode_text(spec), **options})
 
     def __str__(self) -> str:
-        return EMULATOR if self.kind == EMULATOR else f"{self.kind}:{self.address}"
+        return f"{self.kind}:{self.address}" if glove_source(self.kind).address else self.kind
 
     @property
     def is_device(self) -> bool:
         """A glove on a wire (serial, UDP): it runs in real time. The emulator and logs can run faster."""
-        return self.kind != EMULATOR and glove_source(self.kind).device
+        return glove_source(self.kind).device
 
     def udp_address(self) -> tuple[str, int]:
         """(host, port) of a udp glove (host 0.0.0.0 when only the port is given)."""

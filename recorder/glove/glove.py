@@ -1,8 +1,8 @@
 """Glove: an open glove as every command uses it. ``make_glove(config)`` builds it (``open_glove`` opens it too):
-the link GloveConfig names (serial, UDP, an MCAP log played back) or the built-in emulator on a pseudo-terminal
-read through the real serial path; host fusion (recorder/fusion/session.py SessionFusion: every frame goes
-through it, so raw, pose, compact and legacy JSON gloves all yield HandPoses); the pose track on the loop's
-clock; and the glove's button presses.
+the link of the glove source GloveConfig names (the built-in emulator on a pseudo-terminal read through the real
+serial path, serial, UDP, an MCAP log played back, a plugin's); host fusion (recorder/fusion/session.py
+SessionFusion: every frame goes through it, so raw, pose, compact and legacy JSON gloves all yield HandPoses); the
+pose track on the loop's clock; and the glove's button presses.
 
 The loop's clock ("glove time") is the host's monotonic clock in real time (device times are mapped onto it),
 and the glove's own device clock faster than real time (the loop then advances as fast as frames arrive).
@@ -11,28 +11,18 @@ and the glove's own device clock faster than real time (the loop then advances a
 from __future__ import annotations
 
 import sys
-import threading
 import time
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 
-from recorder import GloverecError
-from recorder.demonstrator.session import SessionMotion
-from recorder.emulator.emulator import Emulator
-from recorder.emulator.procedure import ProcedureMotion
 from recorder.fusion.session import SessionFusion
-from recorder.glove.config import EMULATOR, GloveConfig, glove_source
+from recorder.glove.config import GloveConfig, glove_source
 from recorder.glove.track import FrameRate, PoseTrack
-from recorder.hand.kinematics import interpolate_dip
 from recorder.hand.pose import HandPose
 from recorder.link.base import GloveSource
-from recorder.link.serial_source import SerialSource
 from recorder.log.playback import log_calibration
 from recorder.protocol import EventCode, EventFrame
 
-TRANSITION_S = 0.8  # the emulated hand's move back to a demonstration's start pose
-LEAD_S = 0.5  # faster than real time, the emulator runs at most this far ahead of the loop's needs
-WATCHING_LEAD_S = 0.05  # ... or this far, while a demonstrator that watches performs (its corrections come a
-# reaction time, 0.1-0.3 s, after what it saw: further ahead, the emulator would have synthesised past them)
 RATE_WINDOW_S = 1.0  # the glove's rate: frames over this much of its own time (robust to bursts and resets)
 
 
@@ -53,38 +43,11 @@ def _say(text: str) -> None:
     print(text, file=sys.stderr, flush=True)
 
 
-class _TakenMotion:
-    """The session motion as the emulator takes it, block by block, under a lock that ``demonstrate`` holds too:
-    a demonstration then starts after the last block taken, never inside a block being synthesised (which would
-    make the hand jump: harmless for poses, a saturated gyro for raw frames)."""
-
-    def __init__(self, motion: SessionMotion):
-        self.motion = motion
-        self.rate_hz = motion.rate_hz
-        self.lock = threading.Lock()
-        self.taken = 0  # samples the emulator took
-
-    @property
-    def taken_s(self) -> float:
-        """Session time of the first sample not taken yet."""
-        return self.taken / self.rate_hz
-
-    def next_block(self, n: int):
-        with self.lock:
-            self.taken += n
-            return self.motion.next_block(n)
-
-    def at(self, t):
-        return self.motion.at(t)
-
-
 def link_for(config: GloveConfig, *, realtime: bool = True, **options) -> GloveSource:
-    """The (unopened) link to a glove on a wire or in a log, from its registered source (recorder/glove/config.py);
-    ``realtime`` paces log playback at recorded speed."""
-    if config.kind == EMULATOR:
-        raise GloverecError(f"{config} has no link of its own: open it with open_glove")
+    """The (unopened) link to the glove, from its registered source (recorder/glove/config.py); ``realtime`` paces
+    log playback at recorded speed and the emulator by the host clock."""
     options.setdefault("protocol", config.protocol)
-    return glove_source(config.kind).opener(config, realtime, **options)
+    return glove_source(config.kind).link(config, realtime, **options)
 
 
 class Glove:
@@ -92,7 +55,8 @@ class Glove:
     clock); ``motion``: the emulator's wearer when the config leaves it open; ``fusion``: a SessionFusion
     (default: the glove's saved calibration, or for a log the calibration it was recorded with); ``say``: where
     lines for the person go (stderr); ``warm_fusion``: compile host fusion's kernels at ``open`` when the glove
-    may send raw frames (False for commands that read frames without fusing them as they come)."""
+    may send raw frames (False for commands that read frames without fusing them as they come);
+    ``link_options``: for the source's opener (the emulator's ``wearer``: recorder/emulator/source.py)."""
 
     def __init__(
         self,
@@ -106,23 +70,19 @@ class Glove:
         warm_fusion: bool = True,
         **link_options,
     ):
-        self.config = config
+        self.config = config = replace(config, motion=config.motion or motion)  # the emulator's wearer, settled
         self.fast = fast
         self.say = say  # lines for the person (host fusion being prepared)
         self.warm_fusion = warm_fusion  # compile host fusion at open (commands that fuse frames as they come)
         self.fusion = fusion if fusion is not None else _fusion_for(config, calibration_dir)
-        self.emulator: Emulator | None = None
-        self.session: SessionMotion | None = None  # the scripted demonstrations the emulated wearer performs
-        self._motion: _TakenMotion | None = None
-        self._demo_start = 0.0  # session time of the demonstration being performed
-        self._lead_s = LEAD_S  # how far ahead a fast emulator may synthesise
-        self.motion = config.motion or motion
-        if config.kind == EMULATOR:
-            port = self._plug_emulator(config)
-            self.source = SerialSource(port, protocol=config.protocol, **link_options)
-            self.source.lossless = fast  # bulk generation: paced by this reader, nothing lost however slow it is
-        else:
-            self.source = link_for(config, realtime=not fast, **link_options)
+        self.source = link_for(config, realtime=not fast, **link_options)
+        if self.source.expects:  # the glove is known before it sends: a bad calibration file stops the session now
+            try:
+                self.fusion.expect(**self.source.expects)
+            except BaseException:
+                self.source.close()  # the emulator's port
+                raise
+        self.before_wait: Callable[[float], None] | None = None  # see wait_past
         self.name = str(config)
         self.track = PoseTrack()
         self.buttons: list[float] = []  # glove times of button presses not yet taken
@@ -130,41 +90,14 @@ class Glove:
         self.received = 0  # every frame taken
         self._rate = FrameRate(RATE_WINDOW_S)
 
-    def _plug_emulator(self, config: GloveConfig) -> str:
-        if self.motion == "demonstrations":
-            self.session = SessionMotion(seed=config.seed, rate_hz=config.rate_hz)
-            self._motion = _TakenMotion(self.session)
-            motion = self._motion
-            # the emulated wearer rests in the session's first pose (where fusion starts), not the flat hand
-            rest = interpolate_dip(self.session.keyframe_angles([0.0]))[0]
-        elif self.motion in ("calibration", "calibration_pinch"):
-            pinch = self.motion == "calibration_pinch"
-            motion, rest = ProcedureMotion("gestures", config.seed, config.rate_hz, pinch=pinch), None
-        else:
-            motion, rest = self.motion, None
-        self.emulator = Emulator(config.rate_hz, config.mode, motion, seed=config.seed)
-        if self.motion not in ("calibration", "calibration_pinch"):  # calibrating reads raw frames: nothing to fuse
-            self.fusion.expect(self.emulator.glove_id, raw=config.mode == "raw", rest_angles=rest)
-        self.emulator.realtime = not self.fast  # before plug(): its first status frame states the clock
-        try:
-            return self.emulator.plug()
-        except OSError as exc:
-            raise GloverecError(f"cannot create the emulator's port: {exc}") from None
-
     # ------------------------------------------------------------ lifecycle
     def open(self) -> Glove:
         if self.warm_fusion and self._may_fuse():  # before the link opens: no raw frame waits for a compiler
             self.fusion.warm_up(self.say)
         self.source.open()
-        if self.emulator is not None:
-            if self.fast and self.session is not None:  # demonstrations are scheduled as the loop goes
-                self.emulator.lead_s = LEAD_S
-            self.emulator.start(realtime=not self.fast)
         return self
 
     def close(self) -> None:
-        if self.emulator is not None:
-            self.emulator.close()
         self.source.close()
 
     def _may_fuse(self) -> bool:
@@ -172,48 +105,13 @@ class Glove:
         the glove's), a log recorded with host fusion."""
         if self.fusion.host is not None:  # known already (the emulator, a log's record)
             return bool(self.fusion.host)
-        return self.config.kind != "emulator"
+        return self.source.expects is None  # {}: frames read as they come (the emulator calibrating)
 
     def __enter__(self) -> Glove:
         return self.open()
 
     def __exit__(self, *exc) -> None:
         self.close()
-
-    # ------------------------------------------------------------ the demonstrator (emulator only)
-    def demonstrate(self, demo, lead_s: float = 0.0) -> None:
-        """Have the emulated hand perform ``demo`` next; its glove presses the button as the demo starts."""
-        if self.session is None:
-            raise GloverecError("only the emulated glove with motion=demonstrations performs demonstrations")
-        hold = self.fusion.hold_until_s  # host fusion starts on a resting hand
-        with self._motion.lock:
-            start = max(self._motion.taken_s, hold) + TRANSITION_S + lead_s
-            self.session.append(demo, start, TRANSITION_S)
-        self._demo_start = start
-        self._lead_s = WATCHING_LEAD_S if demo.watches else LEAD_S
-        self.emulator.schedule_button(start)
-
-    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0), move=(0.0, 0.0, 0.0)) -> float | None:
-        """The demonstration being performed corrects itself (DemoMotion.revise, ``at_s`` in its own time): in the
-        session's time, and never before what the emulator has synthesised already. Returns when it starts, in
-        the demonstration's time (``at_s`` or later), so that the plan's copy makes the same correction; None when
-        that is too late: the hold it belonged to is over (the correction is dropped, the demonstration goes on as
-        planned)."""
-        with self._motion.lock:
-            at = max(self._demo_start + at_s, self._motion.taken_s + 1.0 / self._motion.rate_hz)
-            try:
-                return self.session.revise(at, duration_s, palm_delta, move) - self._demo_start
-            except ValueError:
-                return None
-
-    def performed(self, t: float):
-        """The emulated wearer's palm at glove time ``t`` as the emulator performs it (the session's motion, the
-        palm's drift included: what its IMUs measure), as (position (3,), quat (4,)) in the world; an emulated
-        glove performing demonstrations faster than real time only (``fast``: glove time is its device clock)."""
-        if self.session is None or not self.fast:
-            raise GloverecError("only the emulated glove, faster than real time, knows where its wearer's palm is")
-        b = self.session.at([self._session_time(t)])
-        return b.palm_pos[0], b.palm_quat[0]
 
     # ------------------------------------------------------------ frames in
     def read(self, timeout: float | None = None):
@@ -326,20 +224,16 @@ class Glove:
         return self.track.newest_s if self.track.newest_s is not None else float("-inf")
 
     def wait_past(self, t: float, timeout_s: float = 5.0) -> bool:
-        """Fast mode: take frames until the track has a sample at or after ``t``; False if none comes."""
+        """Fast mode: take frames until the track has a sample at or after ``t``; False if none comes. First
+        ``before_wait(t)``, when set: an emulator performing demonstrations synthesises that far ahead only
+        (recorder/demonstrator/performer.py)."""
         end = time.monotonic() + timeout_s
-        if self.emulator is not None:  # host fusion shows its first pose after the hand's rest
-            hold = self.fusion.hold_until_s if not self.fusion.started else 0.0
-            self.emulator.allow(max(self._session_time(t), hold) + self._lead_s)
+        if self.before_wait is not None:
+            self.before_wait(t)
         while self.track.newest_s is None or self.track.newest_s < t:
             if self.poll(timeout=0.05, until=t) == 0 and (self.source.finished or time.monotonic() > end):
                 return False
         return True
-
-    def _session_time(self, t: float) -> float:
-        """The emulator's session time of glove time ``t`` (fast: its device clock, unwrapped from t0)."""
-        t0 = self.emulator.t0_us
-        return t - t0 * 1e-6 if t0 is not None else 0.0
 
     @property
     def connected(self) -> bool:

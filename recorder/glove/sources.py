@@ -1,9 +1,15 @@
-"""The built-in glove sources (recorder/glove/config.py ``register_glove_source``): a serial device, a UDP stream,
-an MCAP session log played back. Each opener builds the link it names, unopened; the links load when used."""
+"""The built-in glove sources (recorder/glove/config.py ``register_glove_source``): the emulator in this process, a
+serial device, a UDP stream, an MCAP session log played back. Each opener builds the link it names, unopened; the
+links load when used.
+
+The emulator's opener sits in a layer above this one (recorder/emulator/source.py): it is named here, as the
+task registry names a task's demonstrator, and imported when an emulated glove opens."""
 
 from __future__ import annotations
 
-from recorder.glove.config import register_glove_source, udp_address
+from recorder.glove.config import EMULATOR, register_glove_source, udp_address
+
+register_glove_source(EMULATOR, device=False, address=False)("recorder.emulator.source:emulated")
 
 
 @register_glove_source("serial", device=True, spec="serial:PORT (or a device path)")

@@ -64,6 +64,10 @@ class GloveSource:
         # a source that runs faster than real time (the emulator's bulk generation): the reader waits for room
         # in the queue instead of dropping the oldest frames, and the wait backs up to the sender (the pty fills)
         self.lossless = False
+        # a source that knows its glove before it sends (the emulator in this process) says what host fusion is to
+        # expect: SessionFusion.expect's glove_id, raw and rest_angles, or {} when its frames are read as they come,
+        # unfused (the emulator calibrating); None: the glove is learnt from its frames
+        self.expects: dict | None = None
 
     # ------------------------------------------------------------ lifecycle
     def open(self) -> GloveSource:

@@ -23,6 +23,7 @@ import numpy as np
 import envs
 from recorder import GloverecError
 from recorder.demonstrator import make_demonstrator
+from recorder.demonstrator.performer import Performer, performs
 from recorder.glove.glove import make_glove
 from recorder.hand.profile import HandProfile, wearer_profile
 from recorder.log.writer import McapLogger
@@ -116,8 +117,7 @@ class Recorder:
             raise GloverecError(str(exc)) from None
         self.u = self.env.unwrapped
         self.retarget = Retargeter.for_env(self.env, cfg.retarget, hand_size=self.profile.size())
-        glove = cfg.glove_config
-        scripted = glove.kind == "emulator" and (glove.motion or "demonstrations") == "demonstrations"
+        scripted = performs(cfg.glove_config)  # the emulated wearer performs the demonstrator's demonstrations
         self.demonstrator = make_demonstrator(cfg.task, cfg.demonstrator, cfg.failure_rate) if scripted else None
         wrist = cfg.wrist_config
         if self.u.config.base_position and wrist.kind == SCRIPTED and self.demonstrator is None:
@@ -154,7 +154,12 @@ class Recorder:
 
     def _open_session(self, control) -> None:
         cfg = self.cfg
-        self.glove = make_glove(cfg.glove_config, fast=cfg.is_fast, motion="demonstrations", say=self._say)
+        self.performer = None  # the emulated wearer (with the demonstrator): it wears the glove
+        if self.demonstrator is not None:
+            self.performer = Performer(cfg.glove_config, fast=cfg.is_fast, say=self._say)
+            self.glove = self.performer.glove
+        else:
+            self.glove = make_glove(cfg.glove_config, fast=cfg.is_fast, say=self._say)
         self.clock = clock_for(cfg.is_fast, self.glove, cfg.fps, cfg.glove.rate_hz)
         self.glove.fusion.keep_in(self.store.work, self._say)  # meta/gloverec/calibration.json, before any episode
         write_profile(self.store.work, self.profile)  # meta/gloverec/hand_profile.json: whose hand it was
@@ -188,7 +193,7 @@ class Recorder:
         performs it (its IMUs measure that palm, drift included) faster than real time, else the demonstration's
         plan."""
         if self.glove.fast:
-            return self.glove.performed(t)
+            return self.performer.performed(t)
         b = self.demo.at([t - self._episode_start])
         return b.palm_pos[0], b.palm_quat[0]
 
@@ -316,7 +321,7 @@ class Recorder:
         self.demo = None
         if self.demonstrator is not None:
             self.demo = self.demonstrator.plan(self.u, seed=seed)
-            self.glove.demonstrate(self.demo)
+            self.performer.demonstrate(self.demo)
         if planned is not None:
             start = planned[1] if self.glove.wait_past(planned[1]) else None
             self.glove.buttons.clear()
@@ -495,7 +500,7 @@ class Recorder:
         if self.wrist is not None:
             stats.wrist_delays_s.extend(self.wrist.applied())  # its target applied: a tracker's frame's delay
         if self.demo is not None:
-            self.demo.watch(self.u, into=self.glove)  # a demonstrator that watches corrects what is still ahead
+            self.demo.watch(self.u, into=self.performer)  # a demonstrator that watches corrects what is still ahead
         row = Row(obs, info["applied_action"], at.pose, latency, at.age_s, rinfo["tip_error_mean"], host_tick,
                   device_time, self.task_text, wrist, decision)  # fmt: skip
         self.live.recording(index, k, n_max, stats, wrist)

@@ -54,7 +54,7 @@ class Zygote:
     raised)."""
 
     def __init__(self, folder: Path):
-        from zygote import SHIM
+        from zygote import LEROBOT, SHIM
 
         self.path = str(folder / "zygote.sock")
         self.started: list[str] = []
@@ -64,10 +64,11 @@ class Zygote:
         if line.strip() != "ready":
             self.proc.kill()
             raise RuntimeError(f"the test zygote did not start: {line!r}")
-        self.bin = folder / "bin"  # its `gloverec`, first on the docs runner's PATH
+        self.bin = folder / "bin"  # its `gloverec` and LeRobot's commands, first on the docs runner's PATH
         self.bin.mkdir()
-        (self.bin / "gloverec").write_text(SHIM.format(python=sys.executable))
-        (self.bin / "gloverec").chmod(0o755)
+        for name in ("gloverec", *LEROBOT):
+            (self.bin / name).write_text(SHIM.format(python=sys.executable))
+            (self.bin / name).chmod(0o755)
 
     def run(self, argv: list[str], env: dict, timeout: float) -> subprocess.CompletedProcess:
         import selectors

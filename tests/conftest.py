@@ -12,6 +12,7 @@ from filelock import FileLock
 
 from recorder.paths import CACHE_ENV, CALIBRATION_ENV, HUB_ENV
 from recorder.plugins import PLUGINS_ENV
+from recorder.view.process import PRIORITY_ENV
 
 REPO = Path(__file__).resolve().parents[1]
 FW_BUILD = REPO / "build" / "firmware"  # `make firmware`'s host build: make test builds and ctests it first
@@ -45,7 +46,8 @@ def gloverec(*args: str, **kw) -> subprocess.CompletedProcess:
     )
 
 
-PER_CALL_ENV = {CALIBRATION_ENV, HUB_ENV, CACHE_ENV, PLUGINS_ENV, "PYTHONPATH"}
+# (the live view's priority: the command checks it as it runs, and its view, a fresh interpreter, reads it)
+PER_CALL_ENV = {CALIBRATION_ENV, HUB_ENV, CACHE_ENV, PLUGINS_ENV, PRIORITY_ENV, "PYTHONPATH"}
 
 
 class Zygote:
@@ -342,7 +344,7 @@ def pytest_configure(config):
         compile_every_filter()
 
 
-# ---------------------------------------------------------------- marks: process, serial (pyproject.toml)
+# ---------------------------------------------------------------- the mark: process (pyproject.toml)
 
 SPAWNING_FIXTURES = {"emulator", "docs_run", "display"}  # a test that asks for one starts a process
 _CHILDREN = ("python", "bash", "Xvfb", "xdotool", "chromium", "lerobot-", "gloverec")

@@ -206,7 +206,7 @@ def _main(spec: ViewSpec, stage_args: dict, path: str, layout: Layout, conn, clo
 
             native.run(stage, shared, events, closing.is_set, ready=lambda text: send("ready", text), meter=meter)
         elif spec.kind == "web":
-            from recorder.view import web
+            from recorder.view import web  # the web view's modules: only for this view
 
             web.serve(stage, shared, events, closing.is_set, spec.host, spec.port,
                       ready=lambda url: send("ready", f"live view: {url}"), meter=meter)  # fmt: skip

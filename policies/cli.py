@@ -14,6 +14,7 @@ import contextlib
 import json
 import logging
 import sys
+from pathlib import Path
 
 from policies.config import TrainConfig
 from recorder import GloverecError, config
@@ -148,9 +149,7 @@ def cmd_train(args: argparse.Namespace) -> int:
 def _also(text: str, hub: str | None):
     """An --also dataset: a folder holding one (its id: the folder's last two names), else USER/NAME[@vN] in the
     hub."""
-    from pathlib import Path
-
-    from policies.data import resolve
+    from policies.data import resolve  # torch and lerobot: not at start-up
 
     folder = Path(text)
     if (folder / "meta" / "info.json").is_file():

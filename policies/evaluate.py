@@ -23,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import logging
 import multiprocessing
 import sys
 import time
@@ -483,8 +484,6 @@ _WORKER: dict = {}
 
 def _worker_start() -> None:
     """A pool process: one torch thread, lerobot's chatter off, nothing on stdout (it may carry --json's object)."""
-    import logging
-
     sys.stdout = sys.stderr
     logging.getLogger().setLevel(logging.WARNING)
     torch.set_num_threads(1)

@@ -359,7 +359,7 @@ def plot_losses(history: list[dict], path: Path, title: str = "") -> None:
     import matplotlib  # the Agg backend must be chosen before pyplot loads: both here
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # only for the loss plot: not at start-up
 
     fig, ax = plt.subplots(figsize=(7, 4), dpi=100)
     steps = [h["step"] for h in history]

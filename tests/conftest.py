@@ -12,6 +12,7 @@ from filelock import FileLock
 
 from recorder.paths import CACHE_ENV, CALIBRATION_ENV, HUB_ENV
 from recorder.plugins import PLUGINS_ENV
+from recorder.view.process import PRIORITY_ENV
 
 REPO = Path(__file__).resolve().parents[1]
 FW_BUILD = REPO / "build" / "firmware"  # `make firmware`'s host build: make test builds and ctests it first
@@ -45,7 +46,8 @@ def gloverec(*args: str, **kw) -> subprocess.CompletedProcess:
     )
 
 
-PER_CALL_ENV = {CALIBRATION_ENV, HUB_ENV, CACHE_ENV, PLUGINS_ENV, "PYTHONPATH"}
+# (the live view's priority: the command checks it as it runs, and its view, a fresh interpreter, reads it)
+PER_CALL_ENV = {CALIBRATION_ENV, HUB_ENV, CACHE_ENV, PLUGINS_ENV, PRIORITY_ENV, "PYTHONPATH"}
 
 
 class Zygote:
@@ -54,7 +56,7 @@ class Zygote:
     raised)."""
 
     def __init__(self, folder: Path):
-        from zygote import SHIM
+        from zygote import LEROBOT, SHIM
 
         self.path = str(folder / "zygote.sock")
         self.started: list[str] = []
@@ -64,10 +66,11 @@ class Zygote:
         if line.strip() != "ready":
             self.proc.kill()
             raise RuntimeError(f"the test zygote did not start: {line!r}")
-        self.bin = folder / "bin"  # its `gloverec`, first on the docs runner's PATH
+        self.bin = folder / "bin"  # its `gloverec` and LeRobot's commands, first on the docs runner's PATH
         self.bin.mkdir()
-        (self.bin / "gloverec").write_text(SHIM.format(python=sys.executable))
-        (self.bin / "gloverec").chmod(0o755)
+        for name in ("gloverec", *LEROBOT):
+            (self.bin / name).write_text(SHIM.format(python=sys.executable))
+            (self.bin / name).chmod(0o755)
 
     def run(self, argv: list[str], env: dict, timeout: float) -> subprocess.CompletedProcess:
         import selectors
@@ -331,7 +334,17 @@ def docs_run(shared):
     return get
 
 
-# ---------------------------------------------------------------- marks: process, serial (pyproject.toml)
+def pytest_configure(config):
+    """Before parallel workers start (in the process that starts them): host fusion's numba kernels compiled once
+    into their on-disk cache, so that the workers load them instead of each compiling the same kernels at once
+    (cold, three workers compiling together cost minutes of CPU on two cores)."""
+    if getattr(config, "workerinput", None) is None and config.getoption("numprocesses", default=None):
+        from recorder.fusion.host import compile_every_filter
+
+        compile_every_filter()
+
+
+# ---------------------------------------------------------------- the mark: process (pyproject.toml)
 
 SPAWNING_FIXTURES = {"emulator", "docs_run", "display"}  # a test that asks for one starts a process
 _CHILDREN = ("python", "bash", "Xvfb", "xdotool", "chromium", "lerobot-", "gloverec")

@@ -5,12 +5,14 @@ the tasks) takes 6-8 s of CPU; the suite starts well over a hundred such command
 was most of its time. The zygote (Android's name for the same idea) imports those modules once, stays
 single-threaded, and forks a child per command, the way `multiprocessing`'s forkserver does. Each command still
 runs in a process of its own, with its own stdio, environment, working directory, signals and exit code, through
-the same ``recorder.cli.main`` the `gloverec` script calls; only the imports are shared. What a fresh
-interpreter's start-up does is tested where it matters: the docs' commands (tests/docs_runner.py), the installed
-wheel (tests/test_wheel.py) and every test that starts `python -m recorder.cli` itself.
+the same ``recorder.cli.main`` the `gloverec` script calls (LeRobot's commands in the docs: their console
+scripts' entry points); only the imports are shared. What a fresh interpreter's start-up does is tested where it
+matters: the installed wheel (tests/test_wheel.py), every test that starts `python -m recorder.cli` itself, and the
+whole suite with GLOVEREC_TEST_FRESH=1.
 
-Protocol, over a Unix socket: the client (conftest's ``Zygote``, or the `gloverec` that SHIM puts first on the docs
-runner's PATH) sends one JSON line (argv, env, cwd) with its stdin, stdout and stderr as file descriptors
+Protocol, over a Unix socket: the client (conftest's ``Zygote``, or the `gloverec` and `lerobot-*` that SHIM puts
+first on the docs runner's PATH) sends one JSON line (argv, env, cwd, program) with its stdin, stdout and stderr as
+file descriptors
 (SCM_RIGHTS); the zygote forks a waiter, which forks the command, sends back "pid N\\n", waits for
 it and sends "exit CODE\\n" (a negative code: killed by that signal, as subprocess reports it).
 """
@@ -18,6 +20,7 @@ it and sends "exit CODE\\n" (a negative code: killed by that signal, as subproce
 from __future__ import annotations
 
 import importlib
+import importlib.metadata
 import json
 import os
 import signal
@@ -30,10 +33,15 @@ import warnings
 # every recording does already. Their native threads (OpenBLAS's pool, pyarrow's jemalloc thread) handle a fork;
 # what must not exist is a Python thread, or an OpenMP pool that torch started (none is, until torch computes).
 PRELOAD = ("recorder.cli", "recorder.record.recorder", "recorder.fusion.session", "envs.tasks")
+# LeRobot's commands that the docs run (tests/docs_runner.py): after PRELOAD their imports take 0.3 s, where a fresh
+# interpreter takes 5-8 s of CPU. Each has SHIM on the docs runner's PATH under its own name.
+LEROBOT = ("lerobot-record", "lerobot-teleoperate", "lerobot-replay", "lerobot-train", "lerobot-edit-dataset",
+           "lerobot-dataset-viz", "lerobot-eval")  # fmt: skip
 
 
-def _command(argv: list[str], env: dict, cwd: str) -> int:
-    """In the forked child: run ``gloverec ARGV`` as the script would, exit with its code (atexit handlers run)."""
+def _command(argv: list[str], env: dict, cwd: str, program: str = "gloverec") -> int:
+    """In the forked child: run ``PROGRAM ARGV`` as its script would (`gloverec`, or one of LeRobot's commands that
+    the docs run: LEROBOT), exit with its code (atexit handlers run)."""
     import atexit
     import traceback
 
@@ -42,15 +50,19 @@ def _command(argv: list[str], env: dict, cwd: str) -> int:
     sys.path[:1] = [cwd, *extra]  # as a fresh `python -m` has it: the working directory, then $PYTHONPATH
     os.environ.clear()
     os.environ.update(env)
-    sys.argv = ["gloverec", *argv]
+    sys.argv = [program, *argv]
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGCHLD, signal.SIGPIPE):
         signal.signal(sig, signal.SIG_DFL)
     signal.signal(signal.SIGINT, signal.default_int_handler)
     code = 1
     try:
-        from recorder.cli import main
+        if program == "gloverec":
+            from recorder.cli import main
 
-        code = main(argv) or 0
+            code = main(argv) or 0
+        else:  # the console script's entry point, as its launcher calls it (it reads sys.argv)
+            (entry,) = importlib.metadata.entry_points(group="console_scripts", name=program)
+            code = entry.load()() or 0
     except SystemExit as exc:
         code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
     except BaseException:  # noqa: BLE001  (what the interpreter would print, and its exit code)
@@ -78,7 +90,7 @@ def _serve_one(conn: socket.socket) -> None:
         for target, fd in enumerate(fds):
             os.dup2(fd, target)
             os.close(fd)
-        _command(request["argv"], request["env"], request["cwd"])
+        _command(request["argv"], request["env"], request["cwd"], request.get("program", "gloverec"))
     for fd in fds:
         os.close(fd)
     conn.sendall(f"pid {pid}\n".encode())
@@ -110,14 +122,16 @@ def serve(path: str) -> None:
         conn.close()
 
 
-# The `gloverec` on the docs runner's PATH (tests/docs_runner.py) while a zygote runs: it hands the command, its
-# environment and its stdio to the zygote, passes on the signals a shell sends (Ctrl-C, kill, a job's end), and
-# ends as the command ended. {python} is this interpreter; -S: no site packages needed, a quick start.
+# The `gloverec` (and LEROBOT's commands) on the docs runner's PATH (tests/docs_runner.py) while a zygote runs: it
+# hands the command (the name it was called by), its environment and its stdio to the zygote, passes on the signals
+# a shell sends (Ctrl-C, kill, a job's end), and ends as the command ended. {python} is this interpreter; -S: no
+# site packages needed, a quick start.
 SHIM = """#!{python} -S
 import json, os, signal, socket, sys
 conn = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
 conn.connect(os.environ["GLOVEREC_TEST_ZYGOTE_SOCKET"])
-request = {{"argv": sys.argv[1:], "env": dict(os.environ), "cwd": os.getcwd()}}
+request = {{"argv": sys.argv[1:], "env": dict(os.environ), "cwd": os.getcwd(),
+           "program": os.path.basename(sys.argv[0])}}
 socket.send_fds(conn, [json.dumps(request).encode() + b"\\n"], [0, 1, 2])
 reply = conn.makefile("r")
 pid = int(reply.readline().split()[1])

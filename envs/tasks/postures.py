@@ -21,7 +21,9 @@ from recorder.hand.kinematics import JOINTS, LIMITS, interpolate_dip
 @lru_cache(maxsize=8)
 def retargeter(robot: str):
     """A joint-map Retargeter for ``robot`` (its MuJoCo model once more: for the tasks' layouts only)."""
-    from recorder.retarget.retargeter import Retargeter
+    from recorder.retarget.retargeter import (
+        Retargeter,  # a cycle: the retargeter loads envs, whose package imports the tasks
+    )
 
     return Retargeter(robot, "joint", base_rotation=False)
 

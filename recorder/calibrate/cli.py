@@ -110,7 +110,11 @@ def cmd_calibrate(args) -> int:
         return _calibrate_mount(args)
     if args.camera is not None:
         return _calibrate_camera(args)
-    from recorder.hand.profile import measured_profile, save_profile, segments_from
+    from recorder.hand.profile import (  # the procedure's modules: not at start-up
+        measured_profile,
+        save_profile,
+        segments_from,
+    )
 
     measured = args.hand_length is not None or args.hand_breadth is not None
     if args.glove is None and not (args.wearer and measured):
@@ -156,7 +160,7 @@ def cmd_calibrate(args) -> int:
 
 
 def _calibrate_camera(args) -> int:
-    from recorder.paths import calibration_dir
+    from recorder.paths import calibration_dir  # the camera calibration (OpenCV): not at start-up
     from recorder.wrist.calibration import calibrate, camera_file, frames_of
 
     if args.glove is not None or args.wearer is not None:

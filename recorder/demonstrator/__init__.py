@@ -11,6 +11,7 @@ from __future__ import annotations
 import importlib
 
 from envs.tasks.registry import get_task
+from recorder.config import ConfigError
 from recorder.demonstrator.grasp import GraspDemoConfig, GraspDemonstrator
 from recorder.demonstrator.motion import DemoMotion
 from recorder.demonstrator.pose import PoseDemoConfig, PoseDemonstrator
@@ -29,8 +30,6 @@ __all__ = [
 def demonstrator_class(task: str) -> type:
     """The scripted demonstrator the task registry names for ``task`` (a class, or "module:Class" imported here);
     a task without one, or an unknown task: one-line ConfigError."""
-    from recorder.config import ConfigError
-
     spec = get_task(task)
     found = spec.demonstrator
     if found is None:
@@ -48,13 +47,11 @@ def make_demonstrator(task: str, kind: str = "scripted", failure_rate: float | N
     """The task's scripted demonstrator, or with ``kind="human"`` its human-like one (recorder/demonstrator/human.py;
     ``failure_rate``: the share of takes it gets wrong, default 15 %). An unknown kind, or a task without a human-like
     demonstrator: one-line ConfigError."""
-    from recorder.config import ConfigError
-
     if kind == "scripted":
         return demonstrator_class(task)()
     if kind != "human":
         raise ConfigError(f"unknown demonstrator {kind!r}; valid: {', '.join(DEMONSTRATORS)}")
-    from recorder.demonstrator.human import HUMAN, HumanConfig
+    from recorder.demonstrator.human import HUMAN, HumanConfig  # every task's scripted one: loaded when asked for
 
     if task not in HUMAN:
         raise ConfigError(f"task {task!r} has no human-like demonstrator yet (it has: {', '.join(HUMAN)})")

@@ -86,6 +86,18 @@ def take(seed, h: HumanConfig, kinds: tuple, strategies: tuple):
     return rng, sub, fails, strategy, reaction(rng, h)
 
 
+class MeantFailures:
+    """What a human-like demonstrator says of a take before planning it: ``meant_failure(seed)``, the mistake the take
+    of ``seed`` is meant to make (one of ``kinds``) or None, drawn as ``plan`` draws it (``take``'s first draws), so
+    a caller can count a plan set's meant failures without planning the takes."""
+
+    kinds: tuple = ()
+    human: HumanConfig
+
+    def meant_failure(self, seed: int) -> str | None:
+        return take(seed, self.human, self.kinds, ("",))[2]
+
+
 def humanize(m: DemoMotion, rng: np.random.Generator, c: HumanConfig, until: float = np.inf) -> list[str]:
     """Overshoot-and-correct and hesitate in the large moves of ``m`` that end before ``until`` and are followed by
     a hold long enough to take the extra time; the edits made."""
@@ -136,7 +148,7 @@ def pause_at(m: DemoMotion, t: float, pause: float) -> None:
         setattr(m, name, np.concatenate((values[:k], values[k - 1 : k], values[k:])))
 
 
-class HumanGripDemonstrator:
+class HumanGripDemonstrator(MeantFailures):
     """A grip task (HandGrasp, HandPinch) as a person does it: the scripted plan (``scripted``, its reaction and
     durations drawn as people's), then a strategy, the overshoots and hesitations, and the meant failure. Fingers only
     (no free wrist)."""
@@ -196,17 +208,24 @@ class HumanPinchDemonstrator(HumanGripDemonstrator):
         return self.scripted(config).plan(env, seed=seed)
 
 
-class HumanPoseDemonstrator(PoseDemonstrator):
+class HumanPoseDemonstrator(PoseDemonstrator, MeantFailures):
     """HandPose as a person shows a gesture: see module docstring."""
+
+    kinds = ("stops short", "wrong gesture")
 
     def __init__(self, human: HumanConfig = HumanConfig(), config: PoseDemoConfig = PoseDemoConfig()):
         super().__init__(config)
         self.human = human
 
+    def meant_failure(self, seed: int) -> str | None:
+        """As MeantFailures says; "stops short" becomes "wrong gesture" in the plan where the goal is this close to
+        the open hand that stopping short would still show it."""
+        return failure(np.random.default_rng(seed), self.human, self.kinds)
+
     def plan(self, env, seed: int | None = None) -> DemoMotion:
         env, h, c = env.unwrapped, self.human, self.config
         rng = np.random.default_rng(seed)
-        fails = failure(rng, h, ("stops short", "wrong gesture"))
+        fails = failure(rng, h, self.kinds)
         strategy = str(rng.choice(("together", "thumb last")))
         noise = np.clip(rng.normal(0, 1, len(env.goal_angles)), -2, 2) * np.radians(c.pose_noise_deg)
         start, goal = GESTURES["open"], env.goal_angles + noise
@@ -228,7 +247,7 @@ class HumanPoseDemonstrator(PoseDemonstrator):
         return m
 
 
-class HumanKeysDemonstrator:
+class HumanKeysDemonstrator(MeantFailures):
     """HandKeys as a person plays the sequence: each press a reaction time after its key lights (drawn per take),
     presses and releases at a person's varying speed, tremor, overshoot and hesitation; quick taps or deliberate
     presses; the mistakes: a press "too light" to register (the wearer goes on to the next key, unlit) or the "wrong
@@ -256,7 +275,7 @@ class HumanKeysDemonstrator:
         return m
 
 
-class HumanTurnDemonstrator:
+class HumanTurnDemonstrator(MeantFailures):
     """HandTurn as a person turns a knob: reaction and closing at a person's speed, a turning speed of their own,
     tremor, overshoot and hesitation in the grip; one sweep of the palm or two with a pause between (a person
     re-sets the wrist on a large turn); watching the pointer and correcting as the scripted wearer does. The

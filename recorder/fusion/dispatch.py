@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numba
 
+from recorder.fusion import kernels, pipeline
 from recorder.paths import cache_dir
 
 TEMPLATE = """\
@@ -54,8 +55,6 @@ def block(q, bias, state, params, gyro, accel, dt, mask, out):
 @cache
 def loops(spec):
     """The generated module of filter ``spec`` (a registry FilterSpec): its ``run`` and ``block``."""
-    from recorder.fusion import kernels, pipeline
-
     step = spec.step.py_func if hasattr(spec.step, "py_func") else spec.step
     text = TEMPLATE.format(name=spec.name, module=step.__module__, step=step.__name__)
     digest = hashlib.sha256(text.encode())

@@ -30,10 +30,11 @@ import numpy as np
 from recorder import quat
 from recorder.fusion import pipeline
 from recorder.fusion.bias import BiasTracker
+from recorder.fusion.block import filter_block
 from recorder.fusion.config import FusionConfig
 from recorder.fusion.dispatch import loops
 from recorder.fusion.quality import NONFINITE, InputCheck
-from recorder.fusion.registry import make_filter
+from recorder.fusion.registry import filter_names, make_filter
 from recorder.hand import calibration as cal, joints
 from recorder.hand.kinematics import N_JOINTS
 from recorder.hand.skeleton import JOINT_MAP, N_IMUS, N_SEGMENTS, PARENTS
@@ -373,3 +374,18 @@ def _arrays(rec, dt: float = 0.005, accel_fs_g: int = 16, gyro_fs_dps: int = 200
         temp = np.mean([f.temperature_c for f in frames], axis=0)
     gaps = (np.diff(t) & 0xFFFFFFFF) * 1e-6
     return g, a, np.concatenate(([np.median(gaps) if len(gaps) else dt], gaps)), temp
+
+
+def compile_every_filter() -> float:
+    """Compile (or load from numba's on-disk cache) every registered filter's kernels: the host pipeline
+    (``compile_kernels``), the block loop and the single step. Returns the seconds it took. For what starts many
+    processes at once that fuse frames (the test suite's workers, before they start): each then loads the cache
+    instead of compiling the same kernels at the same time as the others."""
+    t0 = time.monotonic()
+    gyro, accel = np.zeros((2, N_IMUS, 3)), np.tile([0.0, 0.0, 9.81], (2, N_IMUS, 1))
+    for name in filter_names():
+        compile_kernels(FusionConfig(filter=name))
+        f = make_filter(name, N_IMUS)
+        f.update(gyro[0], accel[0], 0.005)
+        filter_block(f, gyro, accel, 0.005)
+    return time.monotonic() - t0

@@ -29,7 +29,8 @@ from recorder.protocol.frames import EventCode, EventFrame, PoseCompactFrame, Po
 RECORD_FILE = Path("meta") / "gloverec" / "calibration.json"
 REST_S = 1.0  # the hand rests this long at the start of a session: fusion starts from it
 STATUS_WAIT_S = 1.5  # after the rest, how long raw frames wait for a status frame (the glove id; 1 Hz)
-COMPILE_NOTE_S = 1.0  # a kernel compile that takes longer than this is announced while it runs
+COMPILE_NOTE_S = 3.0  # a warm-up that takes longer than this is announced while it runs (loading the cached kernels
+# takes 0.2 s idle, and over a second on a loaded machine: not worth a line)
 
 
 def load_config(path=None) -> FusionConfig:
@@ -226,7 +227,7 @@ class SessionFusion:
         config = self.fusion.config if self.fusion is not None else load_config(self.config_path)
         note = threading.Timer(
             COMPILE_NOTE_S,
-            lambda: say("preparing host fusion: compiling its kernels (once per install, 10-30 s)..."),
+            lambda: say("preparing host fusion: compiling its kernels (once per install, 10-30 s) or loading them..."),
         )
         if say is not None:
             note.start()

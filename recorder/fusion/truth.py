@@ -55,7 +55,7 @@ class Trial:
 def load_trial(path) -> Trial:
     """A BROAD trial (HDF5: imu_gyr, imu_acc, opt_quat, movement, attribute sampling_rate)."""
     try:
-        import h5py
+        import h5py  # an optional dependency (the bench extra)
     except ImportError:
         raise GloverecError("reading BROAD trials needs h5py: pip install -e '.[bench]'") from None
     path = Path(path)

@@ -92,6 +92,7 @@ class Glove:
 
     # ------------------------------------------------------------ lifecycle
     def open(self) -> Glove:
+        self.source.check()  # a missing port: one line at once, not after host fusion's warm-up
         if self.warm_fusion and self._may_fuse():  # before the link opens: no raw frame waits for a compiler
             self.fusion.warm_up(self.say)
         self.source.open()

@@ -14,14 +14,16 @@ register_glove_source(EMULATOR, device=False, address=False)("recorder.emulator.
 
 @register_glove_source("serial", device=True, spec="serial:PORT (or a device path)")
 def serial(config, realtime: bool = True, **options):
-    from recorder.link.serial_source import SerialSource
+    from recorder.link.serial_source import (
+        SerialSource,  # the link loads when a glove of this kind opens, not at start-up
+    )
 
     return SerialSource(config.address, baudrate=config.baudrate, **options)
 
 
 @register_glove_source("udp", device=True, spec="udp:PORT, udp:HOST:PORT", check=udp_address)
 def udp(config, realtime: bool = True, **options):
-    from recorder.link.udp_source import UdpSource
+    from recorder.link.udp_source import UdpSource  # the link loads when a glove of this kind opens, not at start-up
 
     host, port = udp_address(config.address)
     return UdpSource(port, host, **options)
@@ -29,6 +31,6 @@ def udp(config, realtime: bool = True, **options):
 
 @register_glove_source("mcap", device=False, spec="mcap:FILE (a session log)")
 def mcap(config, realtime: bool = True, **options):
-    from recorder.log.playback import McapSource
+    from recorder.log.playback import McapSource  # the link loads when a glove of this kind opens, not at start-up
 
     return McapSource(config.address, realtime=realtime, **options)

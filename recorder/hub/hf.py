@@ -23,7 +23,7 @@ def require_online() -> None:
             "--to-hf: HF_HUB_OFFLINE is set, so nothing can be pushed to the Hugging Face Hub "
             "(unset it, or push without --to-hf)"
         )
-    from huggingface_hub import get_token
+    from huggingface_hub import get_token  # only for --to-hf: not at start-up
 
     if not get_token():
         raise GloverecError("--to-hf: no Hugging Face token (set HF_TOKEN or run `hf auth login`)")
@@ -33,7 +33,7 @@ def push_version(repo_id: str, root: os.PathLike, private: bool = False) -> str:
     """Push the dataset at ``root`` (a hub version) to the Hugging Face Hub as ``repo_id``; return its URL."""
     require_online()
     try:
-        from lerobot.datasets.lerobot_dataset import LeRobotDataset
+        from lerobot.datasets.lerobot_dataset import LeRobotDataset  # torch and LeRobot: not at start-up
 
         dataset = LeRobotDataset(repo_id, root=root, video_backend=video_backend())
         dataset.push_to_hub(private=private, allow_patterns=_ALLOW, tags=["gloverec"])

@@ -70,6 +70,10 @@ class GloveSource:
         self.expects: dict | None = None
 
     # ------------------------------------------------------------ lifecycle
+    def check(self) -> None:
+        """Raise GloverecError now if the link cannot open (a device that is not there), before a command spends
+        time on anything else; what cannot be known without connecting is left to ``open``."""
+
     def open(self) -> GloveSource:
         if self._thread is not None:  # already open (open_source() opens; `with` may follow)
             return self

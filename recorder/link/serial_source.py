@@ -6,6 +6,7 @@ import os
 
 import serial
 
+from recorder import GloverecError
 from recorder.link.base import GloveSource
 
 
@@ -16,6 +17,10 @@ class SerialSource(GloveSource):
         self.baudrate = baudrate
         self.name = f"serial:{port}"
         self._serial: serial.Serial | None = None
+
+    def check(self) -> None:
+        if not os.path.exists(self.port):
+            raise GloverecError(f"cannot open {self.name}: no such port")
 
     def _connect(self) -> None:
         if not os.path.exists(self.port):

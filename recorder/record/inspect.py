@@ -180,7 +180,7 @@ def run_merge(args) -> int:
 def merge(out: Path, sources: list[Path]) -> dict:
     """LeRobot's merge_datasets of ``sources`` (in order) into the new folder ``out``, gloverec's records carried;
     datasets that differ in fps, robot or features are refused in one line."""
-    from lerobot.datasets.dataset_tools import merge_datasets
+    from lerobot.datasets.dataset_tools import merge_datasets  # torch and LeRobot: not at start-up
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
     metas = [load_meta(f"local/{src.name}", src) for src in sources]
@@ -200,7 +200,7 @@ def merge(out: Path, sources: list[Path]) -> dict:
 
 def feature_differences(a: dict, b: dict, name_a: str, name_b: str) -> str:
     """What differs between two datasets' features, in a few words ("" when they can be merged: LeRobot's rule)."""
-    from lerobot.datasets.feature_utils import features_equal_for_merge
+    from lerobot.datasets.feature_utils import features_equal_for_merge  # LeRobot: not at start-up
 
     def size(f: dict) -> str:
         return "x".join(map(str, f["shape"]))

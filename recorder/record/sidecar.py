@@ -38,7 +38,7 @@ def _records(root: str | Path) -> list[dict]:
 
 def episode_keys(root: str | Path) -> dict[int, tuple[int, float | None]]:
     """Each episode's (length, first frame's device time or None) from the dataset's episode metadata."""
-    import pyarrow.parquet as pq
+    import pyarrow.parquet as pq  # not at start-up (every command imports this module)
 
     keys: dict[int, tuple[int, float | None]] = {}
     for f in sorted((Path(root) / "meta" / "episodes").glob("*/*.parquet")):

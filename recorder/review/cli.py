@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import json
 import os
+import webbrowser
+from pathlib import Path
 
 import annotated_types as at
 
-from recorder import config
+from recorder import GloverecError, config
 from recorder.argtypes import number
 
 PORT = number(int, at.Ge(0), at.Le(65535))
@@ -42,8 +44,7 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from recorder import GloverecError
-    from recorder.review.server import Review
+    from recorder.review.server import Review  # the server and LeRobot's metadata: not at start-up
     from recorder.review.session import Session
 
     if args.version and not args.hub:
@@ -52,8 +53,6 @@ def run(args) -> int:
     review = Review(session, args.host, args.http_port)
     print(f"review: {review.url}", flush=True)
     if not args.no_browser and (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
-        import webbrowser
-
         webbrowser.open(review.url)
     try:
         review.serve()
@@ -84,9 +83,6 @@ def add_edit_parser(sub) -> None:
 
 
 def cmd_edit(args) -> int:
-    from pathlib import Path
-
-    from recorder import GloverecError
     from recorder.hub.store import Hub  # pyarrow: not at start-up
     from recorder.record.edit import Edits
     from recorder.record.inspect import dataset_root

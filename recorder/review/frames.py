@@ -85,7 +85,7 @@ class Frames:
 
     def _segment(self, e: int, key: str, count: int) -> list[np.ndarray]:
         """The first ``count`` frames of episode ``e`` in camera ``key``'s video."""
-        import av
+        import av  # the video decoder: loaded for the first camera frame, after the page is up
 
         path, start = self._video(e, key)
         frames = []
@@ -124,7 +124,7 @@ class Frames:
         return np.hstack([self._segment(e, key, 1)[0] for key in self.session.cameras])
 
     def _render(self, e: int, k: int, size: tuple[int, int]) -> np.ndarray:
-        import mujoco
+        import mujoco  # MuJoCo and the scene: loaded for the first drawn frame, after the page is up
 
         from recorder.view.scene import frame_of
 
@@ -150,7 +150,7 @@ class Frames:
 
     def _pose(self, env, e: int, state: np.ndarray) -> None:
         """The hand as recorded in ``state`` (joint positions, then velocities, then the palm's pose)."""
-        import mujoco
+        import mujoco  # as in _render
 
         if self.at != (e, -1):
             env.reset(seed=0)
@@ -167,7 +167,7 @@ class Frames:
         """The task's scene (recorder/view/scene.py's Stage) with the dataset's robot, rate and layout."""
         if self.stage is not None:
             return self.stage
-        import mujoco
+        import mujoco  # as in _render
 
         from envs.tasks.base import BASE_POSITION, BASE_ROTATION
         from recorder.view.scene import Stage
@@ -196,7 +196,7 @@ class Frames:
     @staticmethod
     def _camera(stage):
         """The live view's camera, turned to the robot and its task (no human hand is drawn beside it here)."""
-        from recorder.view.scene import free_camera
+        from recorder.view.scene import free_camera  # as in _render
 
         cam = free_camera(stage)
         env = stage.env

@@ -1,8 +1,9 @@
 """A live view beside a command, never in its way: ``open_view(spec, ...)`` starts the view in a process of its
 own (a fresh interpreter at lower scheduling priority, so its software rendering takes only the CPU the command
-leaves), hands it frames through a latest-frame slot (recorder/view/state.py: ``publish`` copies a few kilobytes
-and never waits), and passes its keys and buttons back as requests (``on_event``). View frames are dropped when
-the view is slow; the command's own frames never are.
+leaves; ``GLOVEREC_VIEW_PRIORITY=normal`` lets it compete with the command instead), hands it frames through a
+latest-frame slot (recorder/view/state.py: ``publish`` copies a few kilobytes and never waits), and passes its
+keys and buttons back as requests (``on_event``). View frames are dropped when the view is slow; the command's own
+frames never are.
 
 View specs: ``native`` (MuJoCo's viewer; needs a display), ``web[:PORT]`` or ``web:HOST:PORT`` (a page on
 127.0.0.1:8765 by default), ``rerun[:spawn|serve|connect|save[:TARGET]]`` (recorder/view/rerun_view.py),
@@ -27,6 +28,8 @@ KINDS = ("native", "web", "rerun", "none")
 RERUN_MODES = ("spawn", "serve", "connect", "save")
 WEB_PORT = 8765
 NICE = 10  # the view's scheduling priority below the command's
+PRIORITY_ENV = "GLOVEREC_VIEW_PRIORITY"
+PRIORITIES = ("idle", "normal")  # idle: only the CPU the command leaves (default); normal: competes with it
 
 
 @dataclass(frozen=True)
@@ -84,8 +87,19 @@ def default_view() -> tuple[str, str | None]:
     return "none", "no live view (no display or no terminal): pass --view web for one in a browser"
 
 
+def priority() -> str:
+    """The view's scheduling priority, from $GLOVEREC_VIEW_PRIORITY: ``idle`` (the default: the view takes only
+    the CPU the command leaves, and on a saturated machine draws nothing) or ``normal`` (it competes with the
+    command for the CPU, at the recording's expense: for a demo machine where the view must keep up)."""
+    value = os.environ.get(PRIORITY_ENV, "").strip().lower() or "idle"
+    if value not in PRIORITIES:
+        raise ConfigError(f"${PRIORITY_ENV}={os.environ[PRIORITY_ENV]!r}: valid: {', '.join(PRIORITIES)}")
+    return value
+
+
 def check(spec: ViewSpec) -> None:
     """What can be refused before anything starts: one-line ConfigError."""
+    priority()
     if spec.kind == "native" and not has_display():
         raise ConfigError("--view native needs a display (DISPLAY is not set): use --view web (a browser page)")
     if spec.kind == "web":
@@ -192,7 +206,7 @@ def _main(spec: ViewSpec, stage_args: dict, path: str, layout: Layout, conn, clo
 
             native.run(stage, shared, events, closing.is_set, ready=lambda text: send("ready", text), meter=meter)
         elif spec.kind == "web":
-            from recorder.view import web
+            from recorder.view import web  # the web view's modules: only for this view
 
             web.serve(stage, shared, events, closing.is_set, spec.host, spec.port,
                       ready=lambda url: send("ready", f"live view: {url}"), meter=meter)  # fmt: skip
@@ -212,8 +226,14 @@ def _main(spec: ViewSpec, stage_args: dict, path: str, layout: Layout, conn, clo
 def _step_aside() -> None:
     """Take only the CPU the command leaves: the idle scheduling class where Linux has it (the process runs only
     when a core would otherwise idle), else a lower priority; and one software-rendering thread (Mesa's llvmpipe
-    starts one per core, which would compete with the command on every core)."""
+    starts one per core, which would compete with the command on every core). With $GLOVEREC_VIEW_PRIORITY=normal
+    the process keeps the command's priority (still one rendering thread)."""
     os.environ.setdefault("LP_NUM_THREADS", "1")
+    try:
+        if priority() == "normal":
+            return
+    except ConfigError:
+        pass  # the command checked it before starting the view: idle, as by default
     try:
         os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
     except (AttributeError, OSError):

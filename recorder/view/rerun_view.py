@@ -55,40 +55,50 @@ def run(
     actuators = [stage.model.actuator(i).name for i in range(stage.model.nu)]
     renderer = mujoco.Renderer(stage.model, *SIZE)
     camera, opt = free_camera(stage), mujoco.MjvOption()
-    start, last_image, k, pace, period = time.monotonic(), 0.0, 0, Pace(FPS), 1.0 / FPS
+    start, k, pace, period = time.monotonic(), 0, Pace(FPS), 1.0 / FPS
+    last_image = float("-inf")
+
+    def log(frame, t: float) -> None:
+        nonlocal k, last_image
+        stage.apply(frame)
+        rr.set_time("frame", sequence=k)
+        rr.set_time("time", duration=t - start)
+        k += 1
+        state = stage.data.actuator_length
+        for i, name in enumerate(actuators):
+            rr.log(f"joints/{name}/target", rr.Scalars(float(frame.ctrl[i])))
+            rr.log(f"joints/{name}/state", rr.Scalars(float(state[i])))
+        for part, keys in SCALARS.items():  # the glove's health, a tracked wrist's tracking
+            values = frame.status.get(part) or {}
+            for key in keys:
+                if values.get(key) is not None:
+                    rr.log(f"{part}/{key}", rr.Scalars(float(values[key])))
+        if frame.hand:
+            rr.log("glove/joint_angles_deg", rr.Scalars(np.degrees(frame.angles)))
+        rows = overlay.lines(frame.status, overlay.TERMINAL_KEY_NAMES)  # rerun has no keys: the terminal's
+        rr.log("status", rr.TextDocument("\n".join(f"**{a}** {b}  " for a, b in rows), media_type="text/markdown"))
+        if t - last_image >= 1.0 / IMAGE_FPS:
+            last_image = t
+            renderer.update_scene(stage.data, camera=camera, scene_option=opt)
+            stage.decorate(renderer.scene, opt)
+            rr.log("scene", rr.Image(renderer.render()).compress(jpeg_quality=80))
+        if meter is not None:
+            meter.tick()
+
     try:
         while not closing():
             t = time.monotonic()
             frame = shared.read()
             if frame is not None:
-                stage.apply(frame)
-                rr.set_time("frame", sequence=k)
-                rr.set_time("time", duration=t - start)
-                k += 1
-                state = stage.data.actuator_length
-                for i, name in enumerate(actuators):
-                    rr.log(f"joints/{name}/target", rr.Scalars(float(frame.ctrl[i])))
-                    rr.log(f"joints/{name}/state", rr.Scalars(float(state[i])))
-                for part, keys in SCALARS.items():  # the glove's health, a tracked wrist's tracking
-                    values = frame.status.get(part) or {}
-                    for key in keys:
-                        if values.get(key) is not None:
-                            rr.log(f"{part}/{key}", rr.Scalars(float(values[key])))
-                if frame.hand:
-                    rr.log("glove/joint_angles_deg", rr.Scalars(np.degrees(frame.angles)))
-                rows = overlay.lines(frame.status, overlay.TERMINAL_KEY_NAMES)  # rerun has no keys: the terminal's
-                rr.log(
-                    "status", rr.TextDocument("\n".join(f"**{a}** {b}  " for a, b in rows), media_type="text/markdown")
-                )
-                if t - last_image >= 1.0 / IMAGE_FPS:
-                    last_image = t
-                    renderer.update_scene(stage.data, camera=camera, scene_option=opt)
-                    stage.decorate(renderer.scene, opt)
-                    rr.log("scene", rr.Image(renderer.render()).compress(jpeg_quality=80))
-                if meter is not None:
-                    meter.tick()
+                log(frame, t)
                 period = pace.period(frame.status)
             time.sleep(max(0.0, period - (time.monotonic() - t)))
+        # the command's newest frame, if the loop has not logged it: the recording ends with the session's last
+        # state, however little CPU the view had (a session faster than real time can end before its first turn)
+        frame = shared.read()
+        if frame is not None:
+            last_image = float("-inf")
+            log(frame, time.monotonic())
     finally:
         renderer.close()
         rr.disconnect()

@@ -5,6 +5,7 @@ or a stream URL); the result is a CameraModel saved per camera beside the glove 
 from __future__ import annotations
 
 import re
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -72,8 +73,6 @@ def frames_of(camera: str, views: int, every_s: float = 0.5):
         count = int(capture.get(cv2.CAP_PROP_FRAME_COUNT)) if not isinstance(source, int) else 0
         wanted = set(np.linspace(0, count - 1, min(views, count)).round().astype(int)) if count > 0 else None
         out, k, last = [], 0, -1e9
-        import time
-
         while len(out) < views:
             ok, frame = capture.read()
             if not ok:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import time
 from collections import deque
 
+import cv2
 import numpy as np
 
 from recorder import GloverecError
@@ -30,8 +31,6 @@ class MarkerWrist(WristSource):
         self._capture = None
 
     def _open(self) -> tuple:
-        import cv2
-
         source = int(self.address) if self.address.isdigit() else self.address
         capture = cv2.VideoCapture(source)
         if not capture.isOpened():

@@ -10,6 +10,7 @@ x to the right of the printed image, y up it, z out of the paper.
 from __future__ import annotations
 
 import json
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -151,9 +152,7 @@ class PlateScene:
 
     def __init__(self, image: np.ndarray, plate_m: tuple[float, float], width: int = 640, height: int = 480,
                  fovy_deg: float = 45.0):  # fmt: skip
-        import tempfile
-
-        import mujoco
+        import mujoco  # the rendered marker scene only: tests and benchmarks, not a tracker
 
         self.camera = CameraModel.from_fovy(width, height, fovy_deg)
         spec = mujoco.MjSpec()

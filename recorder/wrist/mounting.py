@@ -35,9 +35,14 @@ import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+import cv2
 import numpy as np
+from scipy.optimize import least_squares
+from scipy.spatial.transform import Rotation
 
 from recorder import GloverecError, quat
+from recorder.paths import calibration_dir
+from recorder.wrist.fusion import MARKER_ON_BACK
 
 MOUNT_FILE = "marker_mount.json"  # in the calibrations' folder (recorder/paths.py calibration_dir)
 MIN_SAMPLES = 20  # tracked frames paired with the palm's orientation
@@ -169,8 +174,6 @@ def progress(palm) -> tuple[float, str]:
 
 def _shah(marker: np.ndarray, palm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(X, M) from marker_k = X · palm_k · M by OpenCV's robot-world/hand-eye calibration (Shah), translations 0."""
-    import cv2
-    from scipy.spatial.transform import Rotation
 
     zero = [np.zeros((3, 1))] * len(marker)
     r_m_inv, _, r_x, _ = cv2.calibrateRobotWorldHandEye(list(quat.to_matrix(marker)), zero,
@@ -183,7 +186,6 @@ def _shah(marker: np.ndarray, palm: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 def _refined(marker: np.ndarray, palm: np.ndarray, x: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(X, M) refined from Shah's (x, m) by least squares on each frame's angular error with a Cauchy loss at the
     median error: the frames a square's pose gets most wrong (seen nearly face-on) weigh less."""
-    from scipy.optimize import least_squares
 
     def errors(v):
         predicted = quat.mul(quat.mul(x, quat.from_rotvec(v[:3])), quat.mul(palm, quat.mul(m, quat.from_rotvec(v[3:]))))
@@ -253,9 +255,6 @@ def mounting(source=None, path=None, folder=None, say=None) -> np.ndarray:
     session log's own (``source.marker_in_palm``: what the recording used); else the one `gloverec calibrate
     --wrist` saved in the calibrations' folder (``folder``, as recorder/paths.py calibration_dir); else flat on
     the back of the hand. ``say``: where the line saying which goes."""
-    from recorder.paths import calibration_dir
-    from recorder.wrist.fusion import MARKER_ON_BACK
-
     logged = getattr(source, "marker_in_palm", None)
     if path is None and logged is not None:
         q = np.asarray(logged, float)

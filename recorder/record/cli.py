@@ -23,7 +23,7 @@ def add_parsers(sub, load_policy=None) -> None:
 
 
 def run_record(args: argparse.Namespace) -> int:
-    from recorder.hand.profile import wearer_profile
+    from recorder.hand.profile import wearer_profile  # numpy and the hand model: not at start-up
 
     cfg = RecordConfig.load(args.config, **config.overrides(args, RecordConfig))
     cfg.check()  # names and values: one line in a fraction of a second, before lerobot and torch load

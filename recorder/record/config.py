@@ -117,7 +117,7 @@ class RecordConfig(SessionConfig):
 
         check_names(self.robot, self.task)
         if self.demonstrator != "scripted":
-            from recorder.demonstrator import make_demonstrator
+            from recorder.demonstrator import make_demonstrator  # the demonstrators: not at start-up
 
             if self.glove_config.kind != "emulator":
                 raise cfg.ConfigError(f"--demonstrator {self.demonstrator} is the emulated wearer: record with "

@@ -32,6 +32,7 @@ from recorder.hand.kinematics import joint_angles_from_relative
 from recorder.retarget import MODES
 from recorder.rig.config import SessionConfig
 from recorder.rig.rig import Rig, wrist_track, zero_wrist
+from recorder.wrist.emulated import EmulatedCamera
 from recorder.wrist.track import EmulatedMarker
 
 VIA = ("direct", "glove", "glove+marker")
@@ -109,8 +110,6 @@ def run_episode(
         read = _GloveReader(motion, seed, latency_s, noise_deg)
     elif via == "glove+marker":
         if camera is None:
-            from recorder.wrist.emulated import EmulatedCamera
-
             camera = EmulatedCamera()
         try:
             read = _TrackedWrist(_GloveReader(motion, seed, latency_s, noise_deg), motion, camera, env)
@@ -163,8 +162,6 @@ def success_rate(
     t0 = time.perf_counter()
     camera = None
     if via == "glove+marker":
-        from recorder.wrist.emulated import EmulatedCamera
-
         camera = EmulatedCamera()
     runs = [run_episode(env, r, seed0 + k, via, demonstrator=rig.demonstrator, camera=camera) for k in range(episodes)]
     rig.close()

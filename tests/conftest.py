@@ -354,6 +354,11 @@ def pytest_collection_modifyitems(items):
     for item in items:
         if SPAWNING_FIXTURES & set(getattr(item, "fixturenames", ())):
             item.add_marker(pytest.mark.process)
+    # The longest first, so that no worker starts a minute-long test while the others are out of work: the
+    # documented blocks (the tests that read their results come later, when they are built), then the other tests
+    # that start processes (many wait on real time), then the in-process ones that fill the gaps.
+    items.sort(key=lambda item: 0 if item.nodeid.startswith("tests/test_docs.py::test_documented_commands") else
+               1 if item.get_closest_marker("process") else 2)  # fmt: skip
 
 
 @pytest.hookimpl(hookwrapper=True)

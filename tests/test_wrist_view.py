@@ -147,15 +147,17 @@ def test_the_terminal_line_gets_the_wrist_when_it_has_room(relocate):
     assert live.with_wrist("x" * 70, None) == "x" * 70  # no room in 80 columns
 
 
-def _send_poses(port: int, seconds: float, stop: threading.Event, lost_after_s: float = 1e9) -> None:
-    """A tracker at 60 Hz on udp ``port``: still for a second, then moving right (its -y) at 0.3 m/s; lost after
-    ``lost_after_s``."""
+def _send_poses(port: int, seconds: float, stop: threading.Event, lose: threading.Event | None = None) -> None:
+    """A tracker at 60 Hz on udp ``port``: still for a second, then moving right (its -y) at 0.3 m/s to 0.45 m,
+    where it stays; lost (its poses untracked) once ``lose`` is set: when the test has seen it there, not after a
+    time that a loaded machine's recording may not have caught up with."""
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     t0, seq = time.time(), 0
     while time.time() - t0 < seconds and not stop.is_set():
         s = time.time() - t0
         p = [0.0, -min(0.45, 0.3 * max(0.0, s - 1.0)), 0.5]
-        msg = {"seq": seq, "t": time.time(), "p": p, "q": [1, 0, 0, 0], "tracked": s < lost_after_s}
+        tracked = lose is None or not lose.is_set()
+        msg = {"seq": seq, "t": time.time(), "p": p, "q": [1, 0, 0, 0], "tracked": tracked}
         sock.sendto(json.dumps(msg).encode(), ("127.0.0.1", port))
         seq += 1
         time.sleep(1 / 60)
@@ -207,11 +209,11 @@ def test_the_web_page_shows_a_lost_tracker_at_the_workspace_s_edge(tmp_path):
     from selenium.webdriver.chrome.service import Service
     from test_live_view import HANG_S, LONG_S, Recording, _free_port as free_tcp_port, _until
 
-    port, udp, stop = free_tcp_port(), _free_port(), threading.Event()
+    port, udp, stop, lose = free_tcp_port(), _free_port(), threading.Event(), threading.Event()
     with Recording(tmp_path / "ds", "--task", "relocate", "--episodes", "1", "--episode-time-s", str(LONG_S),
                    "--view", f"web:{port}", "--wrist", f"udp:{udp}", control=True) as rec:  # fmt: skip
         rec.wait_for("episode 0 started")  # the episode's zero waits for the tracker's first pose
-        sender = threading.Thread(target=_send_poses, args=(udp, LONG_S, stop, 2.5), daemon=True)
+        sender = threading.Thread(target=_send_poses, args=(udp, LONG_S, stop, lose), daemon=True)
         sender.start()
         options = Options()
         for flag in ("--headless=new", "--no-sandbox", "--disable-gpu", "--no-first-run", "--window-size=680,940"):
@@ -233,6 +235,8 @@ def test_the_web_page_shows_a_lost_tracker_at_the_workspace_s_edge(tmp_path):
 
         try:
             browser.get(f"http://127.0.0.1:{port}/")
+            assert wait_for(lambda: "at its edge (right)" in text("#status"), HANG_S), text("#status")  # tracked there
+            lose.set()
             assert wait_for(lambda: "TRACKER LOST" in text("#status") and "at its edge (right)" in text("#status"),
                             HANG_S), text("#status")  # fmt: skip
             shot, warn = _until(screenshot, lambda got: _shown(*_plates(got[0])) and got[1].startswith("wrist"))

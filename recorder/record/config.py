@@ -15,8 +15,7 @@ from recorder.config import NonNegative, Positive, setting
 from recorder.glove.config import GloveConfig
 from recorder.paths import recordings_dir
 from recorder.rig.config import SessionConfig
-from recorder.view.config import checked_view
-from recorder.view.process import ViewSpec
+from recorder.view.config import View, view_setting
 from recorder.wrist.config import SCRIPTED
 
 REPO_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*/[A-Za-z0-9][A-Za-z0-9._-]*$")
@@ -83,12 +82,9 @@ class RecordConfig(SessionConfig):
     seed: int = setting(0, "episode k of a session resets the environment with seed + k")
     log: bool = setting(True, "no raw MCAP log of the session beside the dataset", flag="--no-log")
     task_text: str | None = setting(None, "the task string stored with every frame (default: the task's)")
-    view: Annotated[str, AfterValidator(checked_view)] | None = setting(
-        None,
+    view: View = view_setting(
         "live view: native (MuJoCo's viewer), web[:PORT] (a page on 127.0.0.1), rerun[:spawn|serve|connect|save], "
-        "none (default: native with a display and a terminal, else none)",
-        metavar="VIEW",
-        check=ViewSpec.parse,
+        "none (default: native with a display and a terminal, else none)"
     )
 
     @classmethod

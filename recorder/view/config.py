@@ -20,14 +20,19 @@ def checked_view(text: str) -> str:
     return text
 
 
+View = Annotated[str, AfterValidator(checked_view)] | None  # a command's --view field (record's, view's)
+
+
+def view_setting(help: str):
+    """A command's --view field: no view named by default (the command says which it then opens)."""
+    return setting(None, help, metavar="VIEW", check=ViewSpec.parse)
+
+
 @dataclass
 class ViewConfig(SessionConfig):
-    view: Annotated[str, AfterValidator(checked_view)] | None = setting(
-        None,
+    view: View = view_setting(
         "native (MuJoCo's viewer), web[:PORT] (a page on 127.0.0.1), rerun[:MODE], none (default: native with a "
-        "display; none with --video)",
-        metavar="VIEW",
-        check=ViewSpec.parse,
+        "display; none with --video)"
     )
     video: str | None = setting(None, "also render to this video (with no --view: instead of one)", metavar="FILE.mp4")
     duration: Annotated[float, Positive] | None = setting(

@@ -207,6 +207,8 @@ class FrameCache:
             x = self.data[k]
             if k == "action" and x.dim() == 3:
                 x = x[:, 0]  # the frame's own action: every recorded action exactly once
+            elif x.dim() == 3:
+                x = x[:, -1]  # a history window: the frame's own observation, every one exactly once
             s = get_feature_stats(x.numpy().astype(np.float64), axis=0, keepdims=False)
             s["std"] = np.maximum(s["std"], MIN_STD)
             out[k] = s

@@ -135,7 +135,7 @@ def train(
     keys = [*policy_obj.config.input_features, "action"]
     if getattr(policy_obj.config, "reads_task", False):
         keys.append("task")
-    delta = resolve_delta_timestamps(policy_obj.config, meta)
+    delta = history_deltas(resolve_delta_timestamps(policy_obj.config, meta), keys)
     for a, _, _ in splits:
         _check_alike(meta, ref, metas[a], a, keys)
     _say(f"inputs: {describe_inputs(policy_obj.config)}")
@@ -283,6 +283,16 @@ def _loop(bar, train_cache, val_cache, pre, post, policy_obj, optimizer, schedul
             bar.set_postfix(train=f"{history[-1]['train_loss']:.4f}", val="-" if val is None else f"{val:.4f}")
         if done % tcfg.save_freq == 0 or done == cfg.steps:
             _save(out, done, tcfg, policy_obj, optimizer, scheduler, pre, post, history, extras)
+
+
+def history_deltas(delta: dict | None, keys: list[str]) -> dict | None:
+    """LeRobot's delta timestamps for the features the policy reads: a history window (observation deltas) for
+    the vectors only, cameras at the newest frame (the policy reads no camera history, and decoding it would cost
+    a video frame per step of the window)."""
+    if not delta:
+        return delta
+    kept = {k: v for k, v in delta.items() if k in keys and not k.startswith("observation.images.")}
+    return kept or None
 
 
 def _check_alike(meta, ref: DatasetRef, other, other_ref: DatasetRef, keys: list[str]) -> None:

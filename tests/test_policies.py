@@ -195,6 +195,53 @@ def test_resume_after_an_interruption_continues_exactly(trained, dataset, tmp_pa
     assert not all(torch.equal(first[k], straight[k]) for k in first)  # training did move the weights
 
 
+def test_a_history_policy_trains_reloads_and_forgets_its_window_at_reset(dataset, tmp_path):
+    """n_obs_steps > 1: a window of past observations (LeRobot's observation deltas) in training; at inference the
+    window is kept across steps and cleared by reset(): an episode run after another acts as it does alone."""
+    from policies.evaluate import load_policy
+
+    (tmp_path / "history.yaml").write_text("policy: {n_obs_steps: 3, obs_stride: 2, hidden_dim: 64, n_layers: 2}\n")
+    out = tmp_path / "run"
+    ok_json("train", "--repo-id", REPO, "--root", str(dataset), "--steps", "20", "--batch-size", "32",
+            "--out", str(out), "--config", str(tmp_path / "history.yaml"), "--inputs", "state")  # fmt: skip
+    config = json.loads((out / "checkpoints" / "last" / "pretrained_model" / "config.json").read_text())
+    assert (config["n_obs_steps"], config["obs_stride"]) == (3, 2)
+
+    def episode(agent, env, seed: int) -> np.ndarray:
+        obs, _ = env.reset(seed=seed)
+        agent.reset(env, seed)
+        actions = []
+        for _ in range(12):
+            actions.append(agent.act(obs))
+            obs, *_ = env.step(actions[-1])
+        return np.stack(actions)
+
+    env = envs.make("pose", "glovehand")
+    after_another = load_policy(out)
+    episode(after_another, env, 7)
+    second = episode(after_another, env, 8)
+    alone = episode(load_policy(out), env, 8)
+    assert np.array_equal(second, alone)
+    # the window is an input: the same newest observation after another past gives another action
+    policy = after_another.policy
+    x = {k: torch.zeros(1, ft.shape[0]) for k, ft in policy.config.input_features.items()}
+    policy.reset()
+    still = policy.predict_action_chunk({k: v.unsqueeze(1).repeat(1, 3, 1) for k, v in x.items()})
+    moved = policy.predict_action_chunk({k: torch.cat([v.unsqueeze(1) + 1, v.unsqueeze(1).repeat(1, 2, 1)], 1)
+                                         for k, v in x.items()})  # fmt: skip
+    assert not torch.equal(still, moved)
+    env.close()
+
+
+def test_a_history_window_loads_no_camera_history():
+    from policies.train import history_deltas
+
+    delta = {"observation.state": [-0.2, -0.1, 0.0], "observation.images.front": [-0.2, -0.1, 0.0],
+             "observation.glove": [-0.2, -0.1, 0.0], "action": [0.0, 0.1]}  # fmt: skip
+    keys = ["observation.state", "observation.images.front", "action"]
+    assert history_deltas(delta, keys) == {"observation.state": [-0.2, -0.1, 0.0], "action": [0.0, 0.1]}
+
+
 # ---------------------------------------------------------------- gloverec eval
 
 

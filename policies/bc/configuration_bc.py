@@ -29,7 +29,12 @@ POLICY_TYPE = "gloverec_bc"
 @PreTrainedConfig.register_subclass(POLICY_TYPE)
 @dataclass
 class BCConfig(PreTrainedConfig):
+    # history: the policy sees n_obs_steps observations of its vector inputs (state, environment), the newest and
+    # n_obs_steps - 1 before it, obs_stride frames apart (4 and 8 at 30 fps: the last second); cameras only the
+    # newest frame. At an episode's start the first observation stands in for the ones before it (LeRobot's
+    # padding repeats an episode's first frame; select_action fills its window with it after reset()).
     n_obs_steps: int = 1
+    obs_stride: int = 1
     chunk_size: int = 10  # actions predicted per observation (steps of the dataset's fps)
     n_action_steps: int = 1  # executed per prediction (1 with temporal ensembling)
     temporal_ensemble_coeff: float | None = 0.1  # w_i = exp(-coeff * i), i = 0 the oldest prediction
@@ -91,8 +96,8 @@ class BCConfig(PreTrainedConfig):
             raise ValueError(f"n_action_steps must be in 1..chunk_size ({self.chunk_size}), got {self.n_action_steps}")
         if self.temporal_ensemble_coeff is not None and self.n_action_steps != 1:
             raise ValueError("n_action_steps must be 1 with temporal ensembling (the policy runs every step)")
-        if self.n_obs_steps != 1:
-            raise ValueError(f"only n_obs_steps=1 is supported, got {self.n_obs_steps}")
+        if self.n_obs_steps < 1 or self.obs_stride < 1:
+            raise ValueError(f"n_obs_steps and obs_stride must be at least 1, got {self.n_obs_steps}, {self.obs_stride}")
         if self.hidden_dim < 1 or self.n_layers < 1:
             raise ValueError("hidden_dim and n_layers must be positive")
         self.inputs = list(named_inputs.parse(self.inputs))
@@ -153,8 +158,15 @@ class BCConfig(PreTrainedConfig):
             raise ValueError(f"the {POLICY_TYPE} policy needs an '{ACTION}' output feature")
 
     @property
-    def observation_delta_indices(self) -> None:
-        return None
+    def history_frames(self) -> int:
+        """How many frames the observation window spans (1: the newest only)."""
+        return (self.n_obs_steps - 1) * self.obs_stride + 1
+
+    @property
+    def observation_delta_indices(self) -> list[int] | None:
+        if self.n_obs_steps == 1:
+            return None
+        return list(range(-(self.n_obs_steps - 1) * self.obs_stride, 1, self.obs_stride))
 
     @property
     def action_delta_indices(self) -> list[int]:

@@ -87,7 +87,7 @@ class BCPolicy(PreTrainedPolicy):
         )
         state_width = {OBS_STATE: len(config.state_indices)} if config.state_indices is not None else {}
         width = (
-            sum(state_width.get(k, config.input_features[k].shape[0]) for k in self.vector_keys)
+            config.n_obs_steps * sum(state_width.get(k, config.input_features[k].shape[0]) for k in self.vector_keys)
             + config.image_embedding_dim * len(self.image_keys)
             + (config.task_embedding_dim if self.task_embedding is not None else 0)
         )
@@ -121,21 +121,46 @@ class BCPolicy(PreTrainedPolicy):
         if self.temporal_ensembler is not None:
             self.temporal_ensembler.reset()
         self._queue = deque(maxlen=self.config.n_action_steps)
+        self._history = {k: deque(maxlen=self.config.history_frames) for k in self.vector_keys}
 
     def adopt_stats(self, stats: dict) -> None:
         """The statistics the processors normalise with, where the model needs them too (the palm frame)."""
         if self.palm_frame is not None:
             self.palm_frame.adopt(stats)
 
+    def _windows(self, batch: dict[str, Tensor]) -> dict[str, Tensor]:
+        """Each vector input as (B, n_obs_steps, D): a training batch's window (LeRobot's observation deltas), or at
+        inference the newest observation appended to the window kept since reset()."""
+        n, out = self.config.n_obs_steps, {}
+        for k in self.vector_keys:
+            x = batch[k]
+            if x.dim() == 3:  # (B, n, D): a window from the dataset
+                out[k] = x
+                continue
+            if n == 1:
+                out[k] = x.unsqueeze(1)
+                continue
+            queue = self._history[k]
+            while len(queue) < queue.maxlen - 1:  # after reset(): the first observation stands in for the past
+                queue.append(x)
+            queue.append(x)
+            out[k] = torch.stack(list(queue)[:: self.config.obs_stride], dim=1)
+        return out
+
     def _chunk(self, batch: dict[str, Tensor]) -> Tensor:
-        vectors = {k: batch[k].flatten(1) for k in self.vector_keys}
+        windows = self._windows(batch)
+        b, n = next(iter(windows.values())).shape[:2] if windows else (0, 1)
+        vectors = {k: v.flatten(0, 1) for k, v in windows.items()}  # (B * n, D): each step alike
         if self.palm_frame is not None:
             vectors, palm = self.palm_frame.inputs(vectors)
+            palm = palm.view(b, n, -1)[:, -1]  # the base target is relative to the newest palm
         if OBS_STATE in vectors and self.config.state_indices is not None:
             vectors[OBS_STATE] = vectors[OBS_STATE][:, self.state_indices]  # the task's elements left out
-        parts = [vectors[k] for k in self.vector_keys]
+        parts = [vectors[k].reshape(b, -1) for k in self.vector_keys]
         for enc, k in zip(self.encoders, self.image_keys):
             image = batch[k]
+            if image.dim() == 5:  # (B, n, C, H, W) from lerobot-train's observation deltas: the newest frame
+                image = image[:, -1]
             if self.training and self.config.image_shift > 0:
                 image = random_shift(image, self.config.image_shift)
             parts.append(enc(image))
@@ -165,6 +190,7 @@ class BCPolicy(PreTrainedPolicy):
     def select_action(self, batch: dict[str, Tensor], **kwargs) -> Tensor:
         """(B, action_dim): the next action, temporally ensembled (or from the chunk queue)."""
         self.eval()
+        batch = {**batch, **self._windows(batch)}  # every step's observation joins the window, predicted or not
         if self.temporal_ensembler is not None:
             return self.temporal_ensembler.update(self.predict_action_chunk(batch))
         if not self._queue:

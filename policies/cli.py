@@ -33,9 +33,12 @@ def _dataset_flags(p: argparse.ArgumentParser) -> None:
 
 
 def add_parsers(subparsers) -> None:
-    t = subparsers.add_parser("train", help="train a behaviour-cloning policy on a recorded dataset")
+    t = subparsers.add_parser("train", help="train a policy (behaviour cloning unless --policy) on a recorded dataset")
     _dataset_flags(t)
-    t.add_argument("--policy", choices=("bc",), default="bc", help="the policy to train (default bc)")
+    t.add_argument("--policy", default="bc", metavar="NAME",
+                   help="the policy type to train: bc (gloverec_bc, the default) or any type registered with LeRobot's "
+                   "PreTrainedConfig.register_subclass, LeRobot's (act, ...) or a module's named in $GLOVEREC_PLUGINS "
+                   "(docs/policies.md, Adding a policy type)")  # fmt: skip
     t.add_argument("--out", required=True, help="output folder: checkpoints, loss curve, split, summary")
     t.add_argument("--also", nargs="+", default=[], metavar="DATASET",
                    help="train on these datasets too: hub ids USER/NAME[@vN] (in --hub's hub) or dataset folders, "

@@ -1,6 +1,6 @@
 """TrainConfig: the settings of `gloverec train`. Defaults here; `--config FILE` (e.g. configs/train/quick.yaml)
 and the command-line flags override them (recorder/config.py). ``policy`` holds fields of the policy's LeRobot
-config (policies/bc/configuration_bc.py BCConfig), checked against it when training starts."""
+config (for bc, policies/bc/configuration_bc.py BCConfig), checked against it when training starts."""
 
 from __future__ import annotations
 

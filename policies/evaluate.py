@@ -48,6 +48,7 @@ from envs.tasks.base import BASE_POSITION, action_names
 from policies.data import dataset_info, recorded_with, sidecar
 from recorder import GloverecError
 from recorder.demonstrator import make_demonstrator
+from recorder.plugins import PLUGINS_ENV, load_plugins
 from recorder.retarget import Retargeter
 
 EVAL_SEED = 100_000  # recordings use seeds 0, 1, ... by default: evaluation episodes are never training ones
@@ -201,17 +202,20 @@ def policy_context(pretrained: Path) -> dict:
 
 
 def load_policy(path: str | Path, device: str = "cpu") -> PolicyAgent:
-    """Any LeRobot checkpoint whose type LeRobot knows (built-in, or ours: importing policies.bc registers it)."""
+    """Any LeRobot checkpoint whose type LeRobot knows: built-in, ours (importing policies.bc registers it), or one
+    a plugin module registers (recorder/plugins.py: $GLOVEREC_PLUGINS, loaded here first)."""
 
     pretrained = find_pretrained(path)
     try:
         kind = json.loads((pretrained / "config.json").read_text()).get("type")
     except ValueError as exc:
         raise GloverecError(f"{pretrained}/config.json is not JSON: {exc}") from None
+    load_plugins()
     if kind not in PreTrainedConfig.get_known_choices():
         raise GloverecError(
             f"{pretrained} is a policy of type {kind!r}, which LeRobot does not know here "
-            f"(known: {', '.join(sorted(PreTrainedConfig.get_known_choices()))})"
+            f"(known: {', '.join(sorted(PreTrainedConfig.get_known_choices()))}; a type of your own registers in a "
+            f"module named in ${PLUGINS_ENV})"
         )
     try:
         cfg = PreTrainedConfig.from_pretrained(pretrained, cli_overrides=[f"--device={device}"])

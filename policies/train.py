@@ -1,5 +1,6 @@
-"""`gloverec train`: behaviour cloning on a recorded dataset with LeRobot's policy factory, processors,
-optimiser presets and checkpoint layout, plus a train/validation split by episode and a loss curve.
+"""`gloverec train`: behaviour cloning (or any policy type registered with LeRobot: ``policy_type``) on a recorded
+dataset with LeRobot's policy factory, processors, optimiser presets and checkpoint layout, plus a train/validation
+split by episode and a loss curve.
 
     OUT/checkpoints/000500/pretrained_model/   config.json, model.safetensors, train_config.json,
                                                policy_preprocessor*.json|safetensors, policy_postprocessor*,
@@ -24,6 +25,7 @@ import io
 import json
 import sys
 import time
+import traceback
 from pathlib import Path
 
 import numpy as np
@@ -44,14 +46,28 @@ from lerobot.utils.constants import CHECKPOINTS_DIR, LAST_CHECKPOINT_LINK, PRETR
 from lerobot.utils.random_utils import set_seed
 from tqdm import tqdm
 
-import policies.bc  # noqa: F401  (registers gloverec_bc)
 from policies import inputs as named_inputs
+from policies.bc import POLICY_TYPE  # importing policies.bc registers gloverec_bc
 from policies.config import TrainConfig
 from policies.data import DatasetRef, FrameCache, load_meta, recorded_with, resolve, split_episodes
 from recorder import GloverecError
+from recorder.plugins import load_plugins
 from recorder.video_backend import video_backend
 
-POLICY_TYPES = {"bc": "gloverec_bc"}
+SHORT_NAMES = {"bc": POLICY_TYPE}  # `--policy bc`, the default
+FLAGS = {"optimizer_lr": "--lr", "inputs": "--inputs"}  # the policy config fields these flags set
+
+
+def policy_type(name: str) -> str:
+    """The LeRobot policy type ``--policy NAME`` names: ``bc`` (gloverec_bc) or any type registered with
+    ``PreTrainedConfig.register_subclass``, LeRobot's own or a plugin module's (recorder/plugins.py: loaded first, so
+    that a module named in $GLOVEREC_PLUGINS can add one); an unknown name is one line listing the known ones."""
+    load_plugins()
+    known = PreTrainedConfig.get_known_choices()
+    kind = SHORT_NAMES.get(name, name)
+    if kind not in known:
+        raise GloverecError(f"unknown policy {name!r}; known: bc ({POLICY_TYPE}), {', '.join(sorted(known))}")
+    return kind
 
 
 def _say(text: str) -> None:
@@ -72,15 +88,22 @@ def _policy_config(policy: str, cfg: TrainConfig, features: dict):
         lacking = named_inputs.missing(tuple(extra["inputs"]), features)
         if lacking:
             raise GloverecError(f"--inputs {cfg.inputs}: the dataset has no {lacking[0]}")
-    config_cls = PreTrainedConfig.get_choice_class(POLICY_TYPES[policy])
+    config_cls = PreTrainedConfig.get_choice_class(policy)
     known = {f.name for f in dataclasses.fields(config_cls)}
     unknown = sorted(set(extra) - known)
-    if unknown:
-        raise GloverecError(f"unknown {policy} policy setting(s) {', '.join(unknown)}")
+    if unknown:  # the flags that set a field by name say so
+        named = [f"{k} ({FLAGS[k]})" if k in FLAGS else k for k in unknown]
+        raise GloverecError(f"unknown {policy} policy setting(s) {', '.join(named)}")
     try:
         return config_cls(device="cpu", push_to_hub=False, **extra)
     except (TypeError, ValueError) as exc:
-        raise GloverecError(f"bad {policy} policy setting: {exc}") from None
+        what = f"bad {policy} policy setting" if extra else f"the {policy} policy's config does not build"
+        raise GloverecError(f"{what}: {_first_line(exc)}") from None
+
+
+def _first_line(exc: Exception) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
 
 
 def train(
@@ -94,8 +117,7 @@ def train(
 ) -> dict:
     """Train (or resume) a policy on ``ref`` (and the datasets ``also``); returns the summary also written to
     OUT/train_summary.json."""
-    if policy not in POLICY_TYPES:
-        raise GloverecError(f"unknown policy {policy!r}; valid: {', '.join(POLICY_TYPES)}")
+    kind = policy_type(policy)
     out = Path(out)
     last = out / "checkpoints" / "last"  # lerobot's CHECKPOINTS_DIR / LAST_CHECKPOINT_LINK
     if resume and not last.exists():
@@ -122,7 +144,7 @@ def train(
         history = json.loads((last / "loss_history.json").read_text())
         set_seed(cfg.seed)
     else:
-        policy_cfg = _policy_config(policy, cfg, meta.features)
+        policy_cfg = _policy_config(kind, cfg, meta.features)
         if hasattr(policy_cfg, "set_instructions"):
             trained = {str(t) for m in (meta, *metas.values()) for t in m.tasks.index}
             policy_cfg.set_instructions(trained, named_inputs.task_instructions(ref.root))
@@ -130,8 +152,11 @@ def train(
         splits = [(a, *split_episodes(metas[a], a.root, cfg.val_fraction, cfg.seed, cfg.successful_only))
                   for a in also]  # fmt: skip
         set_seed(cfg.seed)
-    with contextlib.redirect_stdout(io.StringIO()):  # lerobot prints "Loading weights from local directory"
-        policy_obj = make_policy(policy_cfg, ds_meta=meta)
+    try:  # a type this trainer cannot drive (its class, its processors or an optional dependency missing): one line
+        with contextlib.redirect_stdout(io.StringIO()):  # lerobot prints "Loading weights from local directory"
+            policy_obj = make_policy(policy_cfg, ds_meta=meta)
+    except (ValueError, TypeError, ImportError, NotImplementedError) as exc:
+        raise GloverecError(f"cannot make a {policy_cfg.type} policy: {_first_line(exc)}") from None
     keys = [*policy_obj.config.input_features, "action"]
     if getattr(policy_obj.config, "reads_task", False):
         keys.append("task")
@@ -150,9 +175,13 @@ def train(
         pre, post = make_pre_post_processors(policy_obj.config, pretrained_path=str(pretrained))
     else:
         stats = train_cache.stats(keys, meta.stats or {})
-        pre, post = make_pre_post_processors(policy_obj.config, dataset_stats=stats)
+        try:
+            pre, post = make_pre_post_processors(policy_obj.config, dataset_stats=stats)
+        except (ValueError, ImportError) as exc:  # "Processor for policy type 'x' is not implemented."
+            raise GloverecError(f"cannot train a {policy_obj.config.type} policy: {_first_line(exc)}") from None
         if hasattr(policy_obj, "adopt_stats"):
             policy_obj.adopt_stats(stats)
+        _check_forward(policy_obj, pre, train_cache)
         out.mkdir(parents=True, exist_ok=True)
         (out / "split.json").write_text(
             json.dumps(
@@ -293,6 +322,26 @@ def history_deltas(delta: dict | None, keys: list[str]) -> dict | None:
         return delta
     kept = {k: v for k, v in delta.items() if k in keys and not k.startswith("observation.images.")}
     return kept or None
+
+
+def _check_forward(policy, pre, cache: FrameCache) -> None:
+    """One forward pass on two training frames before anything is written, as validation does it (eval mode, no
+    gradient, the RNG put back: training goes on as without it). A type whose forward wants what this trainer does not
+    give (a reinforcement-learning policy's rewards, frame indices) or returns no (loss, info) is one line."""
+    kind = policy.config.type
+    policy.eval()
+    try:
+        with torch.random.fork_rng(), torch.no_grad():
+            result = policy.forward(pre(cache.batch(torch.arange(min(2, len(cache))))))
+    except Exception as exc:  # noqa: BLE001  (whatever the type raises: where, and one line)
+        where = traceback.extract_tb(exc.__traceback__)[-1]
+        raise GloverecError(f"cannot train a {kind} policy: its forward on a batch of "
+                            f"{', '.join(cache.data)} raised {type(exc).__name__}: {_first_line(exc)} "
+                            f"({Path(where.filename).name}:{where.lineno})") from None  # fmt: skip
+    finally:
+        policy.train()
+    if not (isinstance(result, tuple) and torch.is_tensor(result[0]) and result[0].ndim == 0):
+        raise GloverecError(f"cannot train a {kind} policy: its forward returns no (loss, info)")
 
 
 def _check_alike(meta, ref: DatasetRef, other, other_ref: DatasetRef, keys: list[str]) -> None:

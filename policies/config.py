@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Literal
 
 from annotated_types import Lt
 
@@ -38,6 +38,11 @@ class TrainConfig:
         False,
         "takeover recordings: train on the frames the policy drove too (default: only the wearer's, as HG-DAgger)",
         flag="--policy-frames",
+    )
+    learn_from: Literal["executed", "intended"] = setting(
+        "executed",
+        "the action chunks learnt: the executed action, or a DART recording's intended one (`gloverec record --dart`: "
+        "the wearer's action before the injected noise)",
     )
     val_every: Annotated[int, Positive] | None = setting(None, "validation every N steps (default: steps / 20)")
     save_every: Annotated[int, Positive] | None = setting(1000, "a checkpoint every N steps, and at the end")

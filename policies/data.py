@@ -114,7 +114,8 @@ class FrameCache:
     batch; images come back as float in [0, 1]. Images are kept decoded as uint8 in memory: 2 cameras at 84 x 84
     take 423 MB per 10 k frames (128 x 128: 983 MB), decoded once at about 8 ms a frame. ``driver`` says who drove
     each frame: PLAIN (a demonstration), WEARER or POLICY (a takeover recording's ``intervention`` flag,
-    recorder/record/takeover.py)."""
+    recorder/record/takeover.py). ``action_from``: the feature whose chunks stand as ``action`` (a DART recording's
+    intended action, with the same delta timestamps and padding as the action's)."""
 
     def __init__(
         self,
@@ -123,6 +124,7 @@ class FrameCache:
         keys: list[str],
         delta_timestamps: dict | None,
         progress: bool = True,
+        action_from: str = "action",
     ):
 
         self.episodes = list(episodes)
@@ -131,6 +133,8 @@ class FrameCache:
         self.tasks: list[str] = []  # each frame's instruction, when "task" is among the keys
         if not episodes:
             return
+        if action_from != "action" and delta_timestamps and "action" in delta_timestamps:
+            delta_timestamps = {**delta_timestamps, action_from: delta_timestamps["action"]}
         ds = LeRobotDataset(
             ref.repo_id,
             root=ref.root,
@@ -138,6 +142,7 @@ class FrameCache:
             delta_timestamps=delta_timestamps,
             video_backend=video_backend() if _has_videos(ref.root) else "pyav",  # no video: none is loaded
         )
+        keys = [action_from if k == "action" else k for k in keys]
         wanted = [k for k in (*keys, "action_is_pad") if k in ds.features or k == "action_is_pad"]
         columns: dict[str, list] = {k: [] for k in wanted}
         takeover = "intervention" in ds.features
@@ -153,7 +158,7 @@ class FrameCache:
             driver.append((WEARER if bool(item["intervention"]) else POLICY) if takeover else PLAIN)
             if "task" in keys:
                 self.tasks.append(item["task"])
-        self.data = {k: torch.stack(v) for k, v in columns.items() if v}
+        self.data = {("action" if k == action_from else k): torch.stack(v) for k, v in columns.items() if v}
         self.driver = torch.tensor(driver, dtype=torch.uint8)
 
     @classmethod

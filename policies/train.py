@@ -13,8 +13,10 @@ split by episode and a loss curve.
 ``also``: more datasets trained on with the first (the same robot, rate and policy inputs; other features may
 differ, so plain demonstrations and takeover recordings train together): each split by episode the same way, their
 frames drawn together, a takeover recording's by who drove them (policies/data.py FrameCache.weights).
-Normalisation statistics come from the training episodes only. ``resume`` continues from checkpoints/last
-with the same split, weights, optimiser, scheduler and RNG state: N steps then N more equal 2N in one go.
+Normalisation statistics come from the training episodes only. ``learn_from`` intended: the action chunks learnt
+are a DART recording's intended actions (recorder/record/dart.py), the noise the recorder injected left out.
+``resume`` continues from checkpoints/last with the same split, weights, optimiser, scheduler and RNG state: N steps
+then N more equal 2N in one go.
 """
 
 from __future__ import annotations
@@ -52,6 +54,7 @@ from policies.config import TrainConfig
 from policies.data import DatasetRef, FrameCache, load_meta, recorded_with, resolve, split_episodes
 from recorder import GloverecError
 from recorder.plugins import load_plugins
+from recorder.record.dart import INTENDED_ACTION
 from recorder.video_backend import video_backend
 
 SHORT_NAMES = {"bc": POLICY_TYPE}  # `--policy bc`, the default
@@ -68,6 +71,9 @@ def policy_type(name: str) -> str:
     if kind not in known:
         raise GloverecError(f"unknown policy {name!r}; known: bc ({POLICY_TYPE}), {', '.join(sorted(known))}")
     return kind
+
+
+ACTION_FROM = {"executed": "action", "intended": INTENDED_ACTION}  # TrainConfig.learn_from: the feature learnt
 
 
 def _say(text: str) -> None:
@@ -136,6 +142,9 @@ def train(
         if split["dataset"]["repo_id"] != ref.repo_id:
             raise GloverecError(f"{out} was trained on {split['dataset']['repo_id']}, not {ref.repo_id}")
         train_eps, val_eps = split["train"], split["validation"]
+        learnt = split.get("learn_from", "executed")
+        if learnt != cfg.learn_from:
+            raise GloverecError(f"{out} learns the {learnt} actions: resume it with --learn-from {learnt}")
         also = tuple(resolve(a["repo_id"], root=a["root"]) for a in split.get("also", []))
         metas = {a: load_meta(a) for a in also}
         splits = [(a, t, v) for a, t, v in zip(also, split.get("also_train", []), split.get("also_validation", []))]
@@ -152,6 +161,11 @@ def train(
         splits = [(a, *split_episodes(metas[a], a.root, cfg.val_fraction, cfg.seed, cfg.successful_only))
                   for a in also]  # fmt: skip
         set_seed(cfg.seed)
+    action_from = ACTION_FROM[cfg.learn_from]
+    for r, m in [(ref, meta), *((a, metas[a]) for a, _, _ in splits)]:
+        if action_from not in m.features:
+            raise GloverecError(f"--learn-from {cfg.learn_from}: {r.repo_id} has no {action_from} (record one with "
+                                "gloverec record --dart SCALE)")  # fmt: skip
     try:  # a type this trainer cannot drive (its class, its processors or an optional dependency missing): one line
         with contextlib.redirect_stdout(io.StringIO()):  # lerobot prints "Loading weights from local directory"
             policy_obj = make_policy(policy_cfg, ds_meta=meta)
@@ -167,8 +181,8 @@ def train(
     train_caches, val_caches = [], []
     for r, t, v in [(ref, train_eps, val_eps), *splits]:
         _say(f"loading {r.repo_id} ({r.root}): {len(t)} training and {len(v)} validation episodes")
-        train_caches.append(FrameCache(r, t, keys, delta, progress))
-        val_caches.append(FrameCache(r, v, keys, delta, progress))
+        train_caches.append(FrameCache(r, t, keys, delta, progress, action_from))
+        val_caches.append(FrameCache(r, v, keys, delta, progress, action_from))
     train_cache, val_cache = FrameCache.join(train_caches), FrameCache.join(val_caches)
     weights = train_cache.weights(cfg.intervention_weight, cfg.policy_frames)
     if resume:
@@ -189,6 +203,7 @@ def train(
                     "dataset": ref.as_dict(),
                     "seed": cfg.seed,
                     "successful_only": cfg.successful_only,
+                    "learn_from": cfg.learn_from,
                     "train": train_eps,
                     "validation": val_eps,
                     "also": [a.as_dict() for a, _, _ in splits],
@@ -259,6 +274,7 @@ def train(
         "steps": cfg.steps,
         "start_step": start,
         "batch_size": cfg.batch_size,
+        "learn_from": cfg.learn_from,
         "also": [a.as_dict() for a, _, _ in splits],
         "train_episodes": len(train_cache.episodes),
         "val_episodes": len(val_cache.episodes),

@@ -280,22 +280,27 @@ class HandEnv(gym.Env):
         mujoco.mj_forward(self.model, self.data)
         return self._observation(), self._info(False)
 
-    def step(self, action):
+    def clip_action(self, action) -> np.ndarray:
+        """``action`` as ``step`` applies it (float64): within the action space, the palm rotation's angle at most
+        ``max_base_angle_deg``."""
         a = np.asarray(action, dtype=np.float64).reshape(-1)
         if a.shape != self.action_space.shape:
             raise ValueError(f"expected an action of shape {self.action_space.shape}, got {a.shape}")
         a = np.clip(np.nan_to_num(a), self.action_space.low, self.action_space.high)
+        if self.config.base_rotation:
+            r = slice(self._nu, self._nu + 3)
+            angle = np.linalg.norm(a[r])
+            amax = np.radians(self.config.max_base_angle_deg)
+            if angle > amax:
+                a[r] = a[r] * (amax / angle)
+        return a
+
+    def step(self, action):
+        a = self.clip_action(action)
         self.data.ctrl[:] = a[: self._nu]
         cfg = self.config
         if cfg.base_rotation:
-            r = slice(self._nu, self._nu + 3)
-            rv = a[r]
-            angle = np.linalg.norm(rv)
-            amax = np.radians(cfg.max_base_angle_deg)
-            if angle > amax:
-                rv = rv * (amax / angle)
-                a[r] = rv
-            self._base_rot = quat.from_rotvec(rv)
+            self._base_rot = quat.from_rotvec(a[self._nu : self._nu + 3])
         self.t = (self.steps + 1) / cfg.control_hz
         if cfg.base_position:  # the wearer's wrist: where the action puts it, palm down before the rotation
             pos, q = a[len(a) - 3 :].copy(), quat.IDENTITY.copy()

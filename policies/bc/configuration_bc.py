@@ -97,7 +97,9 @@ class BCConfig(PreTrainedConfig):
         if self.temporal_ensemble_coeff is not None and self.n_action_steps != 1:
             raise ValueError("n_action_steps must be 1 with temporal ensembling (the policy runs every step)")
         if self.n_obs_steps < 1 or self.obs_stride < 1:
-            raise ValueError(f"n_obs_steps and obs_stride must be at least 1, got {self.n_obs_steps}, {self.obs_stride}")
+            raise ValueError(
+                f"n_obs_steps and obs_stride must be at least 1, got {self.n_obs_steps} and {self.obs_stride}"
+            )
         if self.hidden_dim < 1 or self.n_layers < 1:
             raise ValueError("hidden_dim and n_layers must be positive")
         self.inputs = list(named_inputs.parse(self.inputs))

@@ -9,7 +9,7 @@ import json
 from recorder import GloverecError, config
 from recorder.record.config import RecordConfig
 
-RERECORD_FIELDS = ("repo_id", "root", "robot", "task", "fps", "retarget", "cameras", "wearer")
+RERECORD_FIELDS = ("repo_id", "root", "robot", "task", "fps", "retarget", "cameras", "wearer", "dart", "dart_time_s")
 
 
 def add_parsers(sub, load_policy=None) -> None:
@@ -80,6 +80,9 @@ def run_rerecord(args: argparse.Namespace) -> int:
             f"{args.log_file} comes from a glove without a device clock: its episodes cannot be re-timed"
         )
     as_logged = {"robot": session.get("robot"), "task": session.get("task"), "fps": int(session.get("fps", 30))}
+    for key in ("dart", "dart_time_s"):  # a DART session's noise: the same episode seeds draw the same noise
+        if key in session:
+            as_logged[key] = float(session[key])
     if WRIST_TOPIC in info.channels:  # recorded with a tracker: its poses, as the fusion took them, from the log
         as_logged["wrist"] = f"mcap:{args.log_file}"
     given = config.overrides(args, RecordConfig)

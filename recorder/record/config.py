@@ -79,6 +79,15 @@ class RecordConfig(SessionConfig):
         0.15, "--takeover: the departure that counts (the largest share of an action element's range, 0 to 1)"
     )
     takeover_hold_s: Annotated[float, NonNegative] = setting(0.3, "--takeover: held this long, in seconds")
+    dart: Annotated[float, NonNegative] = setting(
+        0.0,
+        "inject noise into the executed action (DART, docs/recording.md): its standard deviation as a share of each "
+        "action element's range, e.g. 0.05 (0: off); the wearer's intended action is stored beside it",
+        metavar="SCALE",
+    )
+    dart_time_s: Annotated[float, NonNegative] = setting(
+        0.2, "--dart: how long the noise holds, its correlation time in seconds (0: white noise)"
+    )
     seed: int = setting(0, "episode k of a session resets the environment with seed + k")
     log: bool = setting(True, "no raw MCAP log of the session beside the dataset", flag="--no-log")
     task_text: str | None = setting(None, "the task string stored with every frame (default: the task's)")
@@ -124,6 +133,11 @@ class RecordConfig(SessionConfig):
                                       "--wrist")  # fmt: skip
         if self.takeover and self.policy is None:
             raise cfg.ConfigError("--takeover passes control from a policy to the wearer: pass --policy DIR too")
+        if self.dart and self.policy is not None:
+            raise cfg.ConfigError("--dart perturbs the wearer's demonstrations: a takeover recording (--policy) "
+                                  "takes none")  # fmt: skip
+        if self.dart >= 1.0:
+            raise cfg.ConfigError(f"--dart {self.dart:g}: expected a share of the action's range below 1")
         if self.policy is not None and not Path(self.policy).exists():
             raise cfg.ConfigError(f"--policy {self.policy}: no such folder")
         if self.policy is not None and self.takeover_threshold >= 1.0:

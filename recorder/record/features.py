@@ -13,6 +13,7 @@ import numpy as np
 
 from recorder.hand.kinematics import JOINTS
 from recorder.hand.pose import HandPose
+from recorder.record.dart import INTENDED_ACTION, NOISE
 
 GLOVE_NAMES = (*(f"{j}.rad" for j in JOINTS), "palm.qw", "palm.qx", "palm.qy", "palm.qz")
 
@@ -33,6 +34,7 @@ class Row:
     task: str
     wrist: object = None  # a free wrist's FusedWrist (recorder/wrist/fusion.py); None: the task scripts the base
     takeover: object = None  # a takeover recording's Decision (recorder/record/takeover.py)
+    intended: np.ndarray | None = None  # a DART recording's: the wearer's action before the noise (float32, clipped)
 
 
 @dataclass(frozen=True)
@@ -55,7 +57,7 @@ def _vector(key: str) -> Callable[[Row], np.ndarray]:
 class DatasetSchema:
     """The features of a recording of ``env`` (an unwrapped gloverec HandEnv); ``use_videos``: cameras as video."""
 
-    def __init__(self, env, use_videos: bool, takeover: bool = False):
+    def __init__(self, env, use_videos: bool, takeover: bool = False, dart: bool = False):
         self.features = [
             Feature(
                 "observation.state",
@@ -162,6 +164,22 @@ class DatasetSchema:
                     ("departure",),
                     lambda r: _scalar(r.takeover.departure),
                     "the wearer's action's departure from the policy's: the largest share of an element's range",
+                ),
+            ]
+        if dart:  # noise was injected into the executed action (recorder/record/dart.py: why these names)
+            self.features += [
+                Feature(
+                    INTENDED_ACTION,
+                    tuple(env.action_names),
+                    lambda r: r.intended,
+                    "the wearer's action before the injected noise, as the environment would apply it (`action` is "
+                    "the executed one)",
+                ),
+                Feature(
+                    NOISE,
+                    tuple(env.action_names),
+                    lambda r: r.action - r.intended,  # float32: exactly action - dart.intended_action
+                    "the injected noise as executed (after the action's limits): action - dart.intended_action",
                 ),
             ]
         h, w = env.config.image_size

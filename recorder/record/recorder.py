@@ -26,6 +26,7 @@ from recorder.log.writer import McapLogger
 from recorder.record.clock import ENDED, LOST, clock_for
 from recorder.record.config import RecordConfig
 from recorder.record.control import NEXT, RERECORD, STOP, TAKEOVER, Control
+from recorder.record.dart import Dart
 from recorder.record.features import DatasetSchema, Row
 from recorder.record.live import LiveView
 from recorder.record.store import EpisodeStore
@@ -124,7 +125,10 @@ class Recorder:
         if agent is not None:
             config = TakeoverConfig(cfg.takeover_threshold, cfg.takeover_hold_s, auto=cfg.takeover)
             self.takeover = Takeover(config, space.low, space.high, cfg.fps)
-        self.schema = DatasetSchema(self.u, use_videos=bool(cfg.cameras), takeover=agent is not None)
+        # DART: the executed action is the wearer's with noise, the wearer's kept beside it (recorder/record/dart.py)
+        self.dart = Dart(cfg.dart, cfg.dart_time_s, space.low, space.high, cfg.fps) if cfg.dart else None
+        self.schema = DatasetSchema(self.u, use_videos=bool(cfg.cameras), takeover=agent is not None,
+                                    dart=self.dart is not None)  # fmt: skip
         self.store = EpisodeStore(
             cfg.root_path,
             cfg.repo_id,
@@ -175,6 +179,7 @@ class Recorder:
                 "task": self.cfg.task,
                 "fps": str(self.cfg.fps),
                 "hand_profile": json.dumps(self.profile.as_dict()),
+                **({"dart": str(self.cfg.dart), "dart_time_s": str(self.cfg.dart_time_s)} if self.dart else {}),
             },
             calibration=self.glove.fusion.record,
         )
@@ -281,6 +286,8 @@ class Recorder:
             self.agent.reset(self.env, seed)
             self.takeover.reset()
             self.live.control = self.takeover.who
+        if self.dart is not None:
+            self.dart.reset(seed)
         self.demo = self.rig.demonstrate(seed) if self.demonstrator is not None else None
         if planned is not None:
             start = planned[1] if self.glove.wait_past(planned[1]) else None
@@ -455,6 +462,11 @@ class Recorder:
             decision = self.takeover.decide(self.agent.act(obs), action)
             action = decision.action
             self.live.control = self.takeover.who
+        intended = None
+        if self.dart is not None:  # the wearer's action as applied, then perturbed: the env clips the executed one
+            intended = self.u.clip_action(action)
+            action = self.dart.perturb(intended)
+            intended = intended.astype(np.float32)
         latency = self.clock.latency(at)
         nxt, _, terminated, truncated, info = self.env.step(action)
         if self.wrist is not None:
@@ -462,7 +474,7 @@ class Recorder:
         if self.demo is not None:
             self.demo.watch(self.u, into=self.rig.performer)  # a demonstrator that watches corrects what is still ahead
         row = Row(obs, info["applied_action"], at.pose, latency, at.age_s, rinfo["tip_error_mean"], host_tick,
-                  device_time, self.task_text, wrist, decision)  # fmt: skip
+                  device_time, self.task_text, wrist, decision, intended)  # fmt: skip
         self.live.recording(index, k, n_max, stats, wrist)
         self.store.add_frame(self.schema.frame(row))
         stats.frames += 1
@@ -492,6 +504,8 @@ class Recorder:
         }
         if self.takeover is not None:
             result["takeover"] = {"policy": self.cfg.policy, **self.takeover.summary()}
+        if self.dart is not None:
+            result["dart"] = self.dart.summary()
         if self.demo is not None and self.demo.intent is not None:
             result["demonstration"] = self.demo.intent  # what the human-like wearer meant: strategy, failure
         if self.logger is not None:

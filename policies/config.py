@@ -41,8 +41,9 @@ class TrainConfig:
     )
     learn_from: Literal["executed", "intended"] = setting(
         "executed",
-        "the action chunks learnt: the executed action, or a DART recording's intended one (`gloverec record --dart`: "
-        "the wearer's action before the injected noise)",
+        "the action chunks learnt: the executed action, or the wearer's intended one (expert.action): a DART "
+        "recording's before the injected noise (`gloverec record --dart`), a takeover recording's where the policy "
+        "drove too (DAgger: every frame counts)",
     )
     val_every: Annotated[int, Positive] | None = setting(None, "validation every N steps (default: steps / 20)")
     save_every: Annotated[int, Positive] | None = setting(1000, "a checkpoint every N steps, and at the end")

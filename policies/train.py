@@ -165,7 +165,7 @@ def train(
     for r, m in [(ref, meta), *((a, metas[a]) for a, _, _ in splits)]:
         if action_from not in m.features:
             raise GloverecError(f"--learn-from {cfg.learn_from}: {r.repo_id} has no {action_from} (record one with "
-                                "gloverec record --dart SCALE)")  # fmt: skip
+                                "gloverec record --dart SCALE, or a takeover recording with --policy DIR)")  # fmt: skip
     try:  # a type this trainer cannot drive (its class, its processors or an optional dependency missing): one line
         with contextlib.redirect_stdout(io.StringIO()):  # lerobot prints "Loading weights from local directory"
             policy_obj = make_policy(policy_cfg, ds_meta=meta)
@@ -184,7 +184,9 @@ def train(
         train_caches.append(FrameCache(r, t, keys, delta, progress, action_from))
         val_caches.append(FrameCache(r, v, keys, delta, progress, action_from))
     train_cache, val_cache = FrameCache.join(train_caches), FrameCache.join(val_caches)
-    weights = train_cache.weights(cfg.intervention_weight, cfg.policy_frames)
+    # the policy's frames of a takeover recording teach its mistakes when the label is what it did, and what the
+    # wearer would have done there when it is the wearer's (DAgger): learnt from the intended action, they count
+    weights = train_cache.weights(cfg.intervention_weight, cfg.policy_frames or cfg.learn_from == "intended")
     if resume:
         pre, post = make_pre_post_processors(policy_obj.config, pretrained_path=str(pretrained))
     else:

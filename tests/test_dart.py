@@ -1,6 +1,6 @@
 """Demonstrations with recoveries (`gloverec record --dart SCALE`, recorder/record/dart.py): the executed action is the
-wearer's plus seeded, temporally correlated noise; `action` stores what was executed, `dart.intended_action` and
-`dart.noise` what the wearer meant and what was added; `gloverec train --learn-from intended` learns the intended
+wearer's plus seeded, temporally correlated noise; `action` stores what was executed, `expert.action` and
+`expert.offset` what the wearer meant and what was added; `gloverec train --learn-from intended` learns the intended
 action chunks."""
 
 from __future__ import annotations
@@ -145,5 +145,5 @@ def test_learning_the_intended_action_of_a_plain_recording_is_one_line(pose_reco
     r = cli("train", "--repo-id", "test/pose", "--root", str(root), "--learn-from", "intended", "--out",
             str(tmp_path / "out"), "--steps", "1")  # fmt: skip
     assert r.returncode == 1 and r.stderr.strip().count("\n") == 0, r.stderr
-    assert "--learn-from intended: test/pose has no dart.intended_action" in r.stderr
+    assert "--learn-from intended: test/pose has no expert.action" in r.stderr
     assert not (tmp_path / "out").exists()

@@ -72,7 +72,9 @@ def test_a_documented_takeover_session_stores_both_actions_and_flags_that_follow
     ds = LeRobotDataset("me/grasp_takeover", root=work / "grasp_takeover")
     data = ds.hf_dataset.with_format("numpy")
     frames = {k: np.asarray(data[k]) for k in ("episode_index", "intervention", "quality.departure", "action",
-                                               "policy.action")}  # fmt: skip
+                                               "policy.action", "expert.action", "expert.offset")}  # fmt: skip
+    # the wearer's action is kept on every frame, the policy's included (DAgger's labels: --learn-from intended)
+    assert np.array_equal(frames["expert.offset"], frames["action"] - frames["expert.action"])
     need = math.ceil(TakeoverConfig().hold_s * ds.fps - 1e-9)
     space = envs.make("grasp", "glovehand").action_space
     lines = (work / "grasp_takeover/meta/gloverec/episodes.jsonl").read_text().splitlines()
@@ -88,6 +90,11 @@ def test_a_documented_takeover_session_stores_both_actions_and_flags_that_follow
         applied, proposed = frames["action"][rows], frames["policy.action"][rows]
         clipped = np.clip(proposed[:first], space.low, space.high)  # the environment applies it within its limits
         assert np.allclose(applied[:first], clipped, atol=1e-5)  # the policy drove until the takeover
+        wearer = frames["expert.action"][rows]
+        assert np.array_equal(wearer[first:], applied[first:])  # then the wearer: the label is what was done
+        span = space.high - space.low
+        departure_from_label = np.max(np.abs(wearer - np.clip(proposed, space.low, space.high)) / span, axis=1)
+        assert np.allclose(departure_from_label[:first], departure[:first], atol=1e-3)  # the wearer's, not the policy's
         assert record["takeover"]["frames_by_wearer"] == int(flags.sum())
         assert [s["frame"] for s in record["takeover"]["switches"]] == ([first] if first < len(flags) else [])
     summary = json.loads((work / "bc2" / "train_summary.json").read_text())

@@ -21,8 +21,8 @@ import numpy as np
 
 # The features a DART recording adds (recorder/record/features.py): named outside "observation." and "action", which
 # LeRobot's dataset_to_policy_features (lerobot/utils/feature_utils.py) takes for policy inputs and for the action.
-INTENDED_ACTION = "dart.intended_action"
-NOISE = "dart.noise"
+INTENDED_ACTION = "expert.action"
+NOISE = "expert.offset"
 STREAM = 0xDA27  # the noise's stream of an episode seed (numpy SeedSequence entropy [STREAM, seed])
 
 

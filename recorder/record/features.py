@@ -57,7 +57,7 @@ def _vector(key: str) -> Callable[[Row], np.ndarray]:
 class DatasetSchema:
     """The features of a recording of ``env`` (an unwrapped gloverec HandEnv); ``use_videos``: cameras as video."""
 
-    def __init__(self, env, use_videos: bool, takeover: bool = False, dart: bool = False):
+    def __init__(self, env, use_videos: bool, takeover: bool = False, expert: bool = False):
         self.features = [
             Feature(
                 "observation.state",
@@ -166,20 +166,21 @@ class DatasetSchema:
                     "the wearer's action's departure from the policy's: the largest share of an element's range",
                 ),
             ]
-        if dart:  # noise was injected into the executed action (recorder/record/dart.py: why these names)
+        if expert:  # DART's noise, or a policy driving: the wearer's action kept (recorder/record/dart.py: the names)
             self.features += [
                 Feature(
                     INTENDED_ACTION,
                     tuple(env.action_names),
                     lambda r: r.intended,
-                    "the wearer's action before the injected noise, as the environment would apply it (`action` is "
-                    "the executed one)",
+                    "the wearer's action (before DART's noise; a takeover recording's wearer where the policy drove), "
+                    "as the environment would apply it (`action` is the executed one)",
                 ),
                 Feature(
                     NOISE,
                     tuple(env.action_names),
-                    lambda r: r.action - r.intended,  # float32: exactly action - dart.intended_action
-                    "the injected noise as executed (after the action's limits): action - dart.intended_action",
+                    lambda r: np.float32(r.action) - r.intended,  # float32: exactly action - expert.action
+                    "the executed action less the wearer's (DART's noise, or the policy's departure where it drove), "
+                    "in float32: action - expert.action",
                 ),
             ]
         h, w = env.config.image_size

@@ -127,8 +127,10 @@ class Recorder:
             self.takeover = Takeover(config, space.low, space.high, cfg.fps)
         # DART: the executed action is the wearer's with noise, the wearer's kept beside it (recorder/record/dart.py)
         self.dart = Dart(cfg.dart, cfg.dart_time_s, space.low, space.high, cfg.fps) if cfg.dart else None
+        # the wearer's action beside the executed one: DART's, and a takeover recording's, where the policy's frames
+        # carry what the wearer would have done there (DAgger's labels: `gloverec train --learn-from intended`)
         self.schema = DatasetSchema(self.u, use_videos=bool(cfg.cameras), takeover=agent is not None,
-                                    dart=self.dart is not None)  # fmt: skip
+                                    expert=self.dart is not None or agent is not None)  # fmt: skip
         self.store = EpisodeStore(
             cfg.root_path,
             cfg.repo_id,
@@ -457,15 +459,16 @@ class Recorder:
             stats.wrist_lost += not wrist.tracked
         palm = at.pose.palm if wrist is None else wrist.quat
         action, rinfo = self.retarget(at.pose.angles, palm, None if wrist is None else wrist.position)
-        decision = None
+        decision, intended = None, None
+        if self.agent is not None or self.dart is not None:
+            intended = self.u.clip_action(action)  # the wearer's action, as the environment would apply it
         if self.agent is not None:  # the policy drives unless the wearer has taken over
             decision = self.takeover.decide(self.agent.act(obs), action)
             action = decision.action
             self.live.control = self.takeover.who
-        intended = None
-        if self.dart is not None:  # the wearer's action as applied, then perturbed: the env clips the executed one
-            intended = self.u.clip_action(action)
+        if self.dart is not None:  # the wearer's action perturbed: the env clips the executed one
             action = self.dart.perturb(intended)
+        if intended is not None:
             intended = intended.astype(np.float32)
         latency = self.clock.latency(at)
         nxt, _, terminated, truncated, info = self.env.step(action)

@@ -161,11 +161,13 @@ def train(
         splits = [(a, *split_episodes(metas[a], a.root, cfg.val_fraction, cfg.seed, cfg.successful_only))
                   for a in also]  # fmt: skip
         set_seed(cfg.seed)
-    action_from = ACTION_FROM[cfg.learn_from]
-    for r, m in [(ref, meta), *((a, metas[a]) for a, _, _ in splits)]:
-        if action_from not in m.features:
-            raise GloverecError(f"--learn-from {cfg.learn_from}: {r.repo_id} has no {action_from} (record one with "
-                                "gloverec record --dart SCALE, or a takeover recording with --policy DIR)")  # fmt: skip
+    # the wearer's intended action: a plain demonstration's is the executed one (no noise, no policy drove), so it
+    # trains beside DART and DAgger recordings; at least one dataset must hold expert.action, or the flag is a mistake
+    wanted = ACTION_FROM[cfg.learn_from]
+    learnt = {r: wanted if wanted in m.features else "action" for r, m in [(ref, meta), *((a, metas[a]) for a in also)]}
+    if wanted not in learnt.values():
+        raise GloverecError(f"--learn-from {cfg.learn_from}: no dataset has {wanted} (record one with gloverec record "
+                            "--dart SCALE, or a takeover recording with --policy DIR)")  # fmt: skip
     try:  # a type this trainer cannot drive (its class, its processors or an optional dependency missing): one line
         with contextlib.redirect_stdout(io.StringIO()):  # lerobot prints "Loading weights from local directory"
             policy_obj = make_policy(policy_cfg, ds_meta=meta)
@@ -181,8 +183,8 @@ def train(
     train_caches, val_caches = [], []
     for r, t, v in [(ref, train_eps, val_eps), *splits]:
         _say(f"loading {r.repo_id} ({r.root}): {len(t)} training and {len(v)} validation episodes")
-        train_caches.append(FrameCache(r, t, keys, delta, progress, action_from))
-        val_caches.append(FrameCache(r, v, keys, delta, progress, action_from))
+        train_caches.append(FrameCache(r, t, keys, delta, progress, learnt[r]))
+        val_caches.append(FrameCache(r, v, keys, delta, progress, learnt[r]))
     train_cache, val_cache = FrameCache.join(train_caches), FrameCache.join(val_caches)
     # the policy's frames of a takeover recording teach its mistakes when the label is what it did, and what the
     # wearer would have done there when it is the wearer's (DAgger): learnt from the intended action, they count

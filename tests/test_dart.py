@@ -140,10 +140,10 @@ def test_bad_dart_settings_are_one_line_and_write_nothing(tmp_path, args, code, 
     assert not (tmp_path / "ds").exists()
 
 
-def test_learning_the_intended_action_of_a_plain_recording_is_one_line(pose_recording, tmp_path):
+def test_learning_the_intended_action_with_no_dataset_that_holds_it_is_one_line(pose_recording, tmp_path):
     root, _ = pose_recording
     r = cli("train", "--repo-id", "test/pose", "--root", str(root), "--learn-from", "intended", "--out",
             str(tmp_path / "out"), "--steps", "1")  # fmt: skip
     assert r.returncode == 1 and r.stderr.strip().count("\n") == 0, r.stderr
-    assert "--learn-from intended: test/pose has no expert.action" in r.stderr
+    assert "--learn-from intended: no dataset has expert.action" in r.stderr
     assert not (tmp_path / "out").exists()

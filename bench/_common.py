@@ -87,7 +87,7 @@ def wilson(successes: int, n: int, z: float = 1.96) -> list[float]:
     p = successes / n
     centre = (p + z * z / (2 * n)) / (1 + z * z / n)
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return [round(centre - half, 3), round(centre + half, 3)]
+    return [max(0.0, round(centre - half, 3)), min(1.0, round(centre + half, 3))]  # no -0.0 at 0 of n
 
 
 # LeRobot's ACT, small enough to train on this 2-core CPU in minutes (bench/learning.py, bench/human_demos.py)

@@ -53,9 +53,13 @@ def train_eval(args, name: str, first: dict, also: list[dict], work: Path) -> di
     config = ["--config", args.config] if args.config else []
     learn = ["--learn-from", "intended"] if also or args.dart else []  # plain demonstrations alone: their action
     t = time.perf_counter()
-    trained = gloverec("train", "--repo-id", f"bench/{Path(first['root']).name}", "--root", first["root"], *extra,
-                       "--steps", str(args.steps), "--out", str(out), "--inputs", args.inputs,
-                       *learn, *config)  # fmt: skip
+    summary = out / "train_summary.json"
+    if summary.is_file():  # --work: trained by an earlier run
+        trained = json.loads(summary.read_text())
+    else:
+        trained = gloverec("train", "--repo-id", f"bench/{Path(first['root']).name}", "--root", first["root"], *extra,
+                           "--steps", str(args.steps), "--out", str(out), "--inputs", args.inputs,
+                           *learn, *config)  # fmt: skip
     wall = time.perf_counter() - t
     ev = gloverec("eval", "--policy", str(out), "--episodes", str(args.eval_episodes), "--seed",
                   str(args.eval_seed))  # fmt: skip

@@ -25,6 +25,7 @@ import os
 import sys
 import tempfile
 import time
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -36,39 +37,65 @@ os.environ.setdefault("HF_HUB_OFFLINE", "1")
 ROUND_SEED = 10_000  # round r records seeds ROUND_SEED * r ..: never the demonstrations' nor the evaluation's
 
 
-def record(args, root: Path, seed: int, episodes: int, *extra: str) -> dict:
+@dataclass(frozen=True)
+class Setting:
+    """What every recording, training and evaluation of a DAgger run shares."""
+
+    task: str
+    robot: str
+    steps: int = 3000
+    inputs: str = "state,environment"
+    config: str | None = None  # a train YAML (policy settings)
+    demonstrator: str = "scripted"  # the expert; "human": the human-like wearer trying to succeed (failure rate 0)
+    eval_episodes: int = 50
+    eval_seed: int = 100_000
+
+
+def record(s: Setting, root: Path, seed: int, episodes: int, *extra: str) -> dict:
     if (root / "meta" / "info.json").is_file():  # --work: recorded by an earlier run
         info = json.loads((root / "meta" / "info.json").read_text())
         return {"root": str(root), "episodes": info["total_episodes"], "frames": info["total_frames"], "reused": True}
-    out = gloverec("record", "--view", "none", "--glove", "emulator", "--task", args.task, "--robot", args.robot,
+    out = gloverec("record", "--view", "none", "--glove", "emulator", "--task", s.task, "--robot", s.robot,
                    "--episodes", str(episodes), "--root", str(root), "--repo-id", f"bench/{root.name}",
                    "--seed", str(seed), "--fast", "--no-log", *extra)  # fmt: skip
     return {"root": str(root), "episodes": out["episodes_saved"], "frames": out["total_frames"],
             "success_rate": out["success_rate"]}  # fmt: skip
 
 
-def train_eval(args, name: str, first: dict, also: list[dict], work: Path) -> dict:
-    out = work / "runs" / name
-    extra = ["--also", *[a["root"] for a in also]] if also else []
-    config = ["--config", args.config] if args.config else []
-    learn = ["--learn-from", "intended"] if also or args.dart else []  # plain demonstrations alone: their action
+def train_eval(s: Setting, out: Path, first: str, also: list[str], intended: bool) -> dict:
+    """Train on ``first`` (a dataset folder) and ``also``, then evaluate; ``intended``: learn expert.action."""
+    extra = ["--also", *also] if also else []
+    config = ["--config", s.config] if s.config else []
+    learn = ["--learn-from", "intended"] if intended else []
     t = time.perf_counter()
     summary = out / "train_summary.json"
     if summary.is_file():  # --work: trained by an earlier run
         trained = json.loads(summary.read_text())
     else:
-        trained = gloverec("train", "--repo-id", f"bench/{Path(first['root']).name}", "--root", first["root"], *extra,
-                           "--steps", str(args.steps), "--out", str(out), "--inputs", args.inputs,
+        trained = gloverec("train", "--repo-id", f"bench/{Path(first).name}", "--root", first, *extra,
+                           "--steps", str(s.steps), "--out", str(out), "--inputs", s.inputs,
                            *learn, *config)  # fmt: skip
     wall = time.perf_counter() - t
-    ev = gloverec("eval", "--policy", str(out), "--episodes", str(args.eval_episodes), "--seed",
-                  str(args.eval_seed))  # fmt: skip
-    row = {"policy": name, "train_frames": trained["train_frames"], "frames_by_policy": trained["frames_by_policy"],
+    ev = gloverec("eval", "--policy", str(out), "--episodes", str(s.eval_episodes), "--seed", str(s.eval_seed))
+    row = {"policy": out.name, "train_frames": trained["train_frames"], "frames_by_policy": trained["frames_by_policy"],
            "train_wall_s": round(wall, 1), "successes": ev["successes"], "episodes": ev["episodes"],
            "success_rate": ev["success_rate"], "wilson95": wilson(ev["successes"], ev["episodes"])}  # fmt: skip
-    print(f"  {name}: {row['success_rate']:.0%} {row['wilson95']} ({trained['train_frames']} frames, "
+    print(f"  {out.name}: {row['success_rate']:.0%} {row['wilson95']} ({trained['train_frames']} frames, "
           f"{wall:.0f} s training)", flush=True)  # fmt: skip
     return row
+
+
+def rounds(s: Setting, work: Path, demos: str, first_policy: Path, n: int, per_round: int) -> list[dict]:
+    """DAgger's rounds 1..n after ``first_policy`` (trained on the demonstrations ``demos``): each records
+    ``per_round`` episodes driven by the last policy, labelled by the wearer, and trains on everything so far."""
+    expert = ["--demonstrator", "human", "--failure-rate", "0"] if s.demonstrator == "human" else []
+    policy, recordings, rows = first_policy, [], []
+    for r in range(1, n + 1):
+        recordings.append(record(s, work / f"round{r}", ROUND_SEED * r, per_round, "--policy", str(policy), *expert))
+        policy = work / "runs" / f"P{r}"
+        row = train_eval(s, policy, demos, [x["root"] for x in recordings], intended=True)
+        rows.append({"round": r, "recorded": recordings[-1], **row})
+    return rows
 
 
 def main() -> None:
@@ -76,6 +103,10 @@ def main() -> None:
     p.add_argument("--task", default="turn")
     p.add_argument("--robot", default="glovehand")
     p.add_argument("--demos", type=int, default=50)
+    p.add_argument("--demonstrator", choices=("scripted", "human"), default="scripted",
+                   help="human: the demonstrations from the human-like wearer (--failure-rate), the rounds' expert "
+                   "the same wearer trying to succeed")  # fmt: skip
+    p.add_argument("--failure-rate", type=float, default=0.15)
     p.add_argument("--rounds", type=int, default=3)
     p.add_argument("--per-round", type=int, default=25)
     p.add_argument("--steps", type=int, default=3000)
@@ -86,22 +117,21 @@ def main() -> None:
     p.add_argument("--eval-seed", type=int, default=100_000)
     p.add_argument("--work", help="keep recordings and runs here (default: a temporary folder)")
     args = p.parse_args()
+    s = Setting(args.task, args.robot, args.steps, args.inputs, args.config, args.demonstrator, args.eval_episodes,
+                args.eval_seed)  # fmt: skip
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="gloverec-dagger-") as tmp:
         work = Path(args.work or tmp)
-        dart = ["--dart", str(args.dart)] if args.dart else []
-        demos = record(args, work / "demos", 0, args.demos, *dart)
-        rounds, recordings = [], []
-        rounds.append({"round": 0, "recorded": demos, **train_eval(args, "P0", demos, [], work)})
-        for r in range(1, args.rounds + 1):
-            policy = work / "runs" / f"P{r - 1}"
-            recordings.append(record(args, work / f"round{r}", ROUND_SEED * r, args.per_round, "--policy", str(policy)))
-            rounds.append({"round": r, "recorded": recordings[-1],
-                           **train_eval(args, f"P{r}", demos, recordings, work)})  # fmt: skip
+        extra = ["--dart", str(args.dart)] if args.dart else []
+        if args.demonstrator == "human":
+            extra += ["--demonstrator", "human", "--failure-rate", str(args.failure_rate)]
+        demos = record(s, work / "demos", 0, args.demos, *extra)
+        first = work / "runs" / "P0"
+        rows = [{"round": 0, "recorded": demos, **train_eval(s, first, demos["root"], [], intended=bool(args.dart))}]
+        rows += rounds(s, work, demos["root"], first, args.rounds, args.per_round)
     write_results(f"dagger_{args.task}_{args.robot}", {
-        "task": args.task, "robot": args.robot, "demos": args.demos, "dart": args.dart, "per_round": args.per_round,
-        "steps": args.steps, "inputs": args.inputs, "config": args.config, "eval_seed": args.eval_seed,
-        "rounds": rounds, "wall_s": round(time.perf_counter() - t0, 1)})  # fmt: skip
+        **asdict(s), "demos": args.demos, "failure_rate": args.failure_rate, "dart": args.dart,
+        "per_round": args.per_round, "rounds": rows, "wall_s": round(time.perf_counter() - t0, 1)})  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -2,13 +2,20 @@
 
     .venv/bin/python bench/learning.py [--episodes 50] [--eval-episodes 50] [--steps 3000]
                                        [--robots glovehand,shadow] [--tasks pose,grasp] [--act-steps 1500]
+                                       [--demonstrator scripted|human] [--failure-rate 0.15]
+                                       [--dagger-rounds 3] [--per-round 25]
 
 For each task and robot, with the gloverec commands a user runs (each in a child process):
-  record --episodes N (emulated glove, scripted demonstrator, seeds 0..N-1) -> push to a local hub
+  record --episodes N (emulated glove, seeds 0..N-1; the scripted demonstrator, or with --demonstrator human the
+  human-like wearer who gets --failure-rate of its takes wrong; HandRelocate always the scripted one: the human-like
+  wearer has no free wrist yet) -> push to a local hub
   -> replay every episode open loop (max |replayed - recorded state|; goal: 0, MuJoCo is deterministic)
   -> train BC on the joint and environment state (--inputs state,environment; --steps or the task's STEPS;
      goal <= 10 min on this CPU); bench/learning_visual.py trains on what a robot has (cameras, joints, instruction)
   -> eval 50 episodes with seeds 100000.. (never training seeds) (goals: HandPose >= 95 %, HandGrasp >= 80 %)
+  -> on the tasks where BC alone falls short (DAGGER_TASKS), --dagger-rounds of DAgger (bench/dagger.py): each round
+     records --per-round episodes driven by the last policy, labelled by the wearer (`gloverec record --policy`),
+     and trains on everything so far (`--also ... --learn-from intended`); each round's policy is evaluated alike
 and, on the first task/robot, LeRobot's ACT through `lerobot-train` on the same hub dataset (a short run of
 a small ACT), evaluated by `gloverec eval`. Writes bench/results/learning.json (rows of other task/robot pairs
 already there are kept, each row with the time it was measured) and the loss curves as
@@ -27,7 +34,8 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import RESULTS, gloverec, train_act, write_results  # noqa: E402
+from _common import RESULTS, gloverec, train_act, wilson, write_results  # noqa: E402
+from dagger import Setting, rounds  # noqa: E402
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
@@ -37,11 +45,15 @@ TRAIN_GOAL_S = 600
 STEPS = 3000
 TASK_STEPS = {"relocate": 10_000}  # a free wrist's reach, carry and release: val loss still falls at 3000
 EVAL_SEED = 100_000
+DAGGER_TASKS = ("turn", "relocate")  # BC from demonstrations alone: 0-4 % and 38 % (docs/policies.md, diagnosis)
+SCRIPTED_ONLY = ("relocate",)  # the human-like wearer has no free wrist yet
 INPUTS = "state,environment"  # the simulator's state: what these rows measure (bench/learning_visual.py: a robot's)
 
 
 def one(task: str, robot: str, args, tmp: Path, hub: Path) -> dict:
     repo = f"bench/{task}_{robot}"
+    demonstrator = "scripted" if task in SCRIPTED_ONLY else args.demonstrator
+    wearer = ["--demonstrator", "human", "--failure-rate", str(args.failure_rate)] if demonstrator == "human" else []
     t = time.perf_counter()
     rec = gloverec(
         "record",
@@ -63,6 +75,7 @@ def one(task: str, robot: str, args, tmp: Path, hub: Path) -> dict:
         "0",
         "--fast",
         "--no-log",
+        *wearer,
     )
     record_s = time.perf_counter() - t
     gloverec("push", "--repo-id", repo, "--root", rec["root"], "--hub", str(hub))
@@ -107,9 +120,17 @@ def one(task: str, robot: str, args, tmp: Path, hub: Path) -> dict:
         "--seed",
         str(EVAL_SEED),
     )
+    dagger = []
+    if task in DAGGER_TASKS and args.dagger_rounds > 0:
+        setting = Setting(task, robot, steps, INPUTS, None, demonstrator, args.eval_episodes, EVAL_SEED)
+        dagger = rounds(setting, tmp / "dagger" / f"{task}_{robot}", str(ref.root), out, args.dagger_rounds,
+                        args.per_round)  # fmt: skip
     result = {
         "task": task,
         "robot": robot,
+        "demonstrator": demonstrator,
+        "failure_rate": args.failure_rate if demonstrator == "human" else None,
+        "dagger": dagger,
         "dataset": {
             "repo_id": repo,
             "episodes": rec["total_episodes"],
@@ -139,15 +160,25 @@ def one(task: str, robot: str, args, tmp: Path, hub: Path) -> dict:
             "success_rate": ev["success_rate"],
             "mean_return": ev["mean_return"],
             "mean_length": ev["mean_length"],
+            "successes": ev["successes"],
+            "wilson95": wilson(ev["successes"], ev["episodes"]),
             "goal": GOALS[task],
             "met": ev["success_rate"] >= GOALS[task],
         },
         "demonstrator_same_seeds": {"success_rate": demo["success_rate"], "mean_return": demo["mean_return"]},
     }
+    last = dagger[-1] if dagger else None  # the policy this row reports: BC, or BC after its DAgger rounds
+    result["final"] = {
+        "policy": f"BC + {last['round']} DAgger rounds" if last else "BC",
+        "success_rate": last["success_rate"] if last else ev["success_rate"],
+        "wilson95": last["wilson95"] if last else result["eval"]["wilson95"],
+        "met": (last["success_rate"] if last else ev["success_rate"]) >= GOALS[task],
+    }
     print(
         f"  {task}/{robot}: BC success {ev['success_rate']:.0%} (goal {GOALS[task]:.0%}), demonstrator "
         f"{demo['success_rate']:.0%}, training {train_s:.0f} s, "
-        f"replay max |diff| {result['replay']['max_abs_state']:.3g}",
+        f"replay max |diff| {result['replay']['max_abs_state']:.3g}; {result['final']['policy']}: "
+        f"{result['final']['success_rate']:.0%}",
         flush=True,
     )
     return result
@@ -183,6 +214,11 @@ def main() -> None:
     p.add_argument("--tasks", default=",".join(GOALS), help="registered tasks (default: those with a goal here)")
     p.add_argument("--robots", default="glovehand,shadow")
     p.add_argument("--act-steps", type=int, default=1500, help="lerobot-train ACT steps (0: skip ACT)")
+    p.add_argument("--demonstrator", choices=("scripted", "human"), default="scripted",
+                   help="who demonstrates (HandRelocate: always scripted)")  # fmt: skip
+    p.add_argument("--failure-rate", type=float, default=0.15, help="--demonstrator human: takes it gets wrong")
+    p.add_argument("--dagger-rounds", type=int, default=3, help=f"DAgger rounds on {', '.join(DAGGER_TASKS)} (0: none)")
+    p.add_argument("--per-round", type=int, default=25, help="episodes each DAgger round records")
     args = p.parse_args()
     runs = []
     t0 = time.perf_counter()
@@ -210,7 +246,7 @@ def main() -> None:
             "bc_steps": args.steps or {"default": STEPS, **TASK_STEPS},
             "runs": runs,
             "act": act_result,
-            "all_goals_met": all(r["eval"]["met"] and r["train"]["met"] for r in runs),
+            "all_goals_met": all(r.get("final", r["eval"])["met"] and r["train"]["met"] for r in runs),
             "wall_s": round(time.perf_counter() - t0, 1),
         },
     )

@@ -35,7 +35,11 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import RESULTS, gloverec, train_act, wilson, write_results  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # _common took bench/ off the path (bench/envs.py)
 from dagger import Setting, rounds  # noqa: E402
+
+sys.path[:] = [p for p in sys.path if p != str(Path(__file__).resolve().parent)]  # dagger put it back too
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")

@@ -16,6 +16,8 @@ For each task and robot, with the gloverec commands a user runs (each in a child
   -> on the tasks where BC alone falls short (DAGGER_TASKS), --dagger-rounds of DAgger (bench/dagger.py): each round
      records --per-round episodes driven by the last policy, labelled by the wearer (`gloverec record --policy`),
      and trains on everything so far (`--also ... --learn-from intended`); each round's policy is evaluated alike
+     (off by default: with the script's demonstrator as the expert the rounds made the policies worse, docs/policies.md)
+  -> BC variants (--policies: POLICIES, e.g. history) trained and evaluated alike on the same dataset
 and, on the first task/robot, LeRobot's ACT through `lerobot-train` on the same hub dataset (a short run of
 a small ACT), evaluated by `gloverec eval`. Writes bench/results/learning.json (rows of other task/robot pairs
 already there are kept, each row with the time it was measured) and the loss curves as
@@ -49,6 +51,7 @@ TRAIN_GOAL_S = 600
 STEPS = 3000
 TASK_STEPS = {"relocate": 10_000}  # a free wrist's reach, carry and release: val loss still falls at 3000
 EVAL_SEED = 100_000
+POLICIES = {"history": {"n_obs_steps": 4, "obs_stride": 8}}  # BC variants beside the default (--policies)
 DAGGER_TASKS = ("turn", "relocate")  # BC from demonstrations alone: 0-4 % and 38 % (docs/policies.md, diagnosis)
 SCRIPTED_ONLY = ("relocate",)  # the human-like wearer has no free wrist yet
 INPUTS = "state,environment"  # the simulator's state: what these rows measure (bench/learning_visual.py: a robot's)
@@ -111,6 +114,8 @@ def one(task: str, robot: str, args, tmp: Path, hub: Path) -> dict:
         "--seed",
         str(EVAL_SEED),
     )
+    variants = {name: variant(name, settings, repo, hub, steps, args, tmp / "runs" / f"{task}_{robot}_{name}")
+                for name, settings in POLICIES.items() if name in args.policies}  # fmt: skip
     demo = gloverec(
         "eval",
         "--policy",
@@ -170,6 +175,7 @@ def one(task: str, robot: str, args, tmp: Path, hub: Path) -> dict:
             "met": ev["success_rate"] >= GOALS[task],
         },
         "demonstrator_same_seeds": {"success_rate": demo["success_rate"], "mean_return": demo["mean_return"]},
+        "variants": variants,
     }
     last = dagger[-1] if dagger else None  # the policy this row reports: BC, or BC after its DAgger rounds
     result["final"] = {
@@ -186,6 +192,22 @@ def one(task: str, robot: str, args, tmp: Path, hub: Path) -> dict:
         flush=True,
     )
     return result
+
+
+def variant(name: str, settings: dict, repo: str, hub: Path, steps: int, args, out: Path) -> dict:
+    """BC with other policy settings (POLICIES) on the same dataset, steps and evaluation seeds."""
+    config = out.with_suffix(".yaml")
+    config.parent.mkdir(parents=True, exist_ok=True)
+    config.write_text(json.dumps({"policy": settings}))  # YAML is a superset of JSON
+    t = time.perf_counter()
+    gloverec("train", "--repo-id", repo, "--hub", str(hub), "--steps", str(steps), "--out", str(out),
+             "--inputs", INPUTS, "--config", str(config))  # fmt: skip
+    wall = time.perf_counter() - t
+    ev = gloverec("eval", "--policy", str(out), "--episodes", str(args.eval_episodes), "--seed", str(EVAL_SEED))
+    print(f"  {name}: {ev['success_rate']:.0%}, training {wall:.0f} s", flush=True)
+    return {"settings": settings, "train_wall_s": round(wall, 1), "successes": ev["successes"],
+            "episodes": ev["episodes"], "success_rate": ev["success_rate"],
+            "wilson95": wilson(ev["successes"], ev["episodes"])}  # fmt: skip
 
 
 def act(task: str, robot: str, steps: int, args, tmp: Path, hub: Path) -> dict:
@@ -221,7 +243,8 @@ def main() -> None:
     p.add_argument("--demonstrator", choices=("scripted", "human"), default="scripted",
                    help="who demonstrates (HandRelocate: always scripted)")  # fmt: skip
     p.add_argument("--failure-rate", type=float, default=0.15, help="--demonstrator human: takes it gets wrong")
-    p.add_argument("--dagger-rounds", type=int, default=3, help=f"DAgger rounds on {', '.join(DAGGER_TASKS)} (0: none)")
+    p.add_argument("--policies", default=",".join(POLICIES), help=f"BC variants beside the default: {POLICIES}")
+    p.add_argument("--dagger-rounds", type=int, default=0, help=f"DAgger rounds on {', '.join(DAGGER_TASKS)} (0: none)")
     p.add_argument("--per-round", type=int, default=25, help="episodes each DAgger round records")
     args = p.parse_args()
     runs = []

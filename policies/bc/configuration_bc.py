@@ -64,6 +64,9 @@ class BCConfig(PreTrainedConfig):
     # training augmentation: random shifts by up to this many pixels (DrQ), 0 off (the default: 4 px moved HandKeys'
     # lit key onto its neighbour's place in an 84 px image, 8 % against 100 %; HandGrasp 94 % against 96 %)
     image_shift: int = 0
+    # training augmentation for the vector inputs: Gaussian noise of this std (in normalised units) added to each,
+    # 0 off (docs/policies.md, diagnosis: what it does against a policy that leaves the demonstrated states)
+    input_noise: float = 0.0
     task_embedding_dim: int = 32
     # the instructions the embedding knows: the training set's, and every other one its task can draw (an
     # embedding row never trained); one outside them is an error

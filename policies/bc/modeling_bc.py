@@ -151,6 +151,8 @@ class BCPolicy(PreTrainedPolicy):
         windows = self._windows(batch)
         b, n = next(iter(windows.values())).shape[:2] if windows else (0, 1)
         vectors = {k: v.flatten(0, 1) for k, v in windows.items()}  # (B * n, D): each step alike
+        if self.training and self.config.input_noise > 0:
+            vectors = {k: v + self.config.input_noise * torch.randn_like(v) for k, v in vectors.items()}
         if self.palm_frame is not None:
             vectors, palm = self.palm_frame.inputs(vectors)
             palm = palm.view(b, n, -1)[:, -1]  # the base target is relative to the newest palm

@@ -234,6 +234,28 @@ def test_a_history_policy_trains_reloads_and_forgets_its_window_at_reset(dataset
     env.close()
 
 
+def test_input_noise_perturbs_training_only():
+    from lerobot.configs.types import FeatureType, PolicyFeature
+
+    from policies.bc import BCConfig, BCPolicy
+
+    def policy(noise: float):
+        cfg = BCConfig(device="cpu", inputs=["state", "environment"], hidden_dim=16, n_layers=1, input_noise=noise)
+        cfg.input_features = {"observation.state": PolicyFeature(FeatureType.STATE, (4,))}
+        cfg.output_features = {"action": PolicyFeature(FeatureType.ACTION, (3,))}
+        torch.manual_seed(0)
+        return BCPolicy(cfg)
+
+    batch = {"observation.state": torch.randn(8, 4), "action": torch.randn(8, 10, 3)}
+    noisy, plain = policy(0.5), policy(0.0)
+    noisy.train()
+    plain.train()
+    assert noisy.forward(batch)[0] != noisy.forward(batch)[0]  # a fresh draw each batch
+    assert plain.forward(batch)[0] == plain.forward(batch)[0]
+    noisy.reset()
+    assert torch.equal(noisy.predict_action_chunk(batch), noisy.predict_action_chunk(batch))  # none at inference
+
+
 def test_a_history_window_loads_no_camera_history():
     from policies.train import history_deltas
 

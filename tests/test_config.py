@@ -128,6 +128,7 @@ def test_shipped_example_configs_load():
     assert RecordConfig.load(config_file("record", "shadow_grasp")).robot == "shadow"
     assert RecordConfig.load(config_file("record", "serial_glove")).glove.kind == "serial"
     assert TrainConfig.load(config_file("train", "quick")).policy == {"hidden_dim": 256}
+    assert TrainConfig.load(config_file("train", "history")).policy == {"n_obs_steps": 4, "obs_stride": 8}
 
 
 specs = st.one_of(

@@ -25,7 +25,10 @@ import contextlib
 import dataclasses
 import io
 import json
+import shutil
+import signal
 import sys
+import threading
 import time
 import traceback
 from pathlib import Path
@@ -258,13 +261,19 @@ def train(
         file=sys.stderr,
     )
     try:
-        _loop(bar, train_cache, val_cache, pre, post, policy_obj, optimizer, scheduler, tcfg, cfg, val_every, history,
-              extras, out, weights)  # fmt: skip
+        with StopRequest() as stop:
+            _loop(bar, train_cache, val_cache, pre, post, policy_obj, optimizer, scheduler, tcfg, cfg, val_every,
+                  history, extras, out, weights, stop)  # fmt: skip
     except KeyboardInterrupt:
         bar.close()
         kept = out / CHECKPOINTS_DIR / LAST_CHECKPOINT_LINK
-        where = f"last checkpoint: step {int(kept.resolve().name)}" if kept.exists() else "no checkpoint yet"
-        _say(f"interrupted at step {bar.n} ({where}); the same command with --resume continues from there")
+        if kept.exists():
+            saved = int(kept.resolve().name)  # the step under way when asked to stop, or an earlier one's
+            _say(f"interrupted at step {max(bar.n, saved)} (checkpoint: step {saved}); the same command with "
+                 "--resume continues from there")  # fmt: skip
+        elif not resume:  # nothing trained yet: what this run wrote goes, so the same command starts afresh
+            shutil.rmtree(out, ignore_errors=True)
+            _say(f"interrupted before the first step: nothing kept in {out}; the same command starts afresh")
         raise
     bar.close()
 
@@ -296,10 +305,37 @@ def train(
     return summary
 
 
+class StopRequest:
+    """Ctrl-C (SIGINT) or `kill` (SIGTERM) while training: the first ends the run after the step under way, with a
+    checkpoint of it (so that --resume continues from there, whatever the save interval), a second at once. Outside
+    the main thread (where no handler can be set) both act at once, as before."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+    def __init__(self):
+        self.requested = False
+        self._old: dict = {}
+
+    def __enter__(self) -> StopRequest:
+        if threading.current_thread() is threading.main_thread():
+            self._old = {s: signal.signal(s, self._handle) for s in self.SIGNALS}
+        return self
+
+    def _handle(self, *_) -> None:
+        if self.requested:
+            raise KeyboardInterrupt
+        self.requested = True
+
+    def __exit__(self, *_) -> None:
+        for s, handler in self._old.items():
+            signal.signal(s, handler)
+
+
 def _loop(bar, train_cache, val_cache, pre, post, policy_obj, optimizer, scheduler, tcfg, cfg, val_every, history,
-          extras, out, weights=None) -> None:  # fmt: skip
+          extras, out, weights=None, stop: StopRequest | None = None) -> None:  # fmt: skip
     """The training steps from the bar's position to cfg.steps: validation, history and checkpoints. ``weights``:
-    how often to draw each training frame (None: uniformly)."""
+    how often to draw each training frame (None: uniformly). ``stop`` asked: a checkpoint of the step just done, then
+    KeyboardInterrupt."""
 
     n = len(train_cache)
     running: list[float] = []
@@ -330,8 +366,10 @@ def _loop(bar, train_cache, val_cache, pre, post, policy_obj, optimizer, schedul
             )
             running = []
             bar.set_postfix(train=f"{history[-1]['train_loss']:.4f}", val="-" if val is None else f"{val:.4f}")
-        if done % tcfg.save_freq == 0 or done == cfg.steps:
+        if done % tcfg.save_freq == 0 or done == cfg.steps or (stop is not None and stop.requested):
             _save(out, done, tcfg, policy_obj, optimizer, scheduler, pre, post, history, extras)
+        if stop is not None and stop.requested:
+            raise KeyboardInterrupt
 
 
 def history_deltas(delta: dict | None, keys: list[str]) -> dict | None:

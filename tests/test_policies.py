@@ -4,8 +4,11 @@ fail and succeed, refused mismatches) and `gloverec replay` (exact reproduction,
 
 import json
 import os
+import re
 import shutil
+import signal
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -301,6 +304,45 @@ def test_an_unknown_or_undrivable_policy_type_is_one_line(dataset, tmp_path):
     assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr[-2000:]
     assert r.stderr.strip().splitlines()[-1].startswith("gloverec: error: cannot train a tdmpc policy: its forward")
     assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.process
+def test_ctrl_c_keeps_the_step_under_way_and_resume_continues_from_it(dataset, tmp_path):
+    """Ctrl-C long before the first checkpoint (every 100000 steps here) saves the step under way, so the same
+    command with --resume continues from it: no folder left that neither a fresh run nor --resume accepts."""
+    out = tmp_path / "run"
+    args = ["train", "--repo-id", REPO, "--root", str(dataset), "--batch-size", "16", "--out", str(out)]
+    proc = subprocess.Popen([sys.executable, "-m", "recorder.cli", *args, "--steps", "100000"],
+                            stderr=subprocess.PIPE)  # fmt: skip
+    seen = b""
+    try:  # the progress bar's count says training is under way: wait for it, not for a time
+        while not re.search(rb"\| *([3-9]|\d\d+)/100000", seen):
+            chunk = os.read(proc.stderr.fileno(), 4096)
+            assert chunk, f"training ended before its third step: {seen.decode()[-2000:]}"
+            seen += chunk
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        proc.kill()
+    err = (seen + err).decode()
+    said = re.search(r"interrupted at step (\d+) \(checkpoint: step (\d+)\); the same command with --resume", err)
+    assert proc.returncode == 130 and said and said[1] == said[2], err[-2000:]
+    step = int(said[1])
+    assert (out / "checkpoints" / "last" / "pretrained_model" / "model.safetensors").is_file()
+    summary = ok_json(*args, "--steps", str(step + 2), "--resume")
+    assert summary["start_step"] == step and summary["steps"] == step + 2
+
+
+def test_a_second_ctrl_c_stops_training_at_once():
+    from policies.train import StopRequest
+
+    before = signal.getsignal(signal.SIGINT)
+    with StopRequest() as stop:
+        os.kill(os.getpid(), signal.SIGINT)  # the first: asked to stop after the step under way
+        assert stop.requested
+        with pytest.raises(KeyboardInterrupt):
+            os.kill(os.getpid(), signal.SIGINT)  # the second: at once
+    assert signal.getsignal(signal.SIGINT) is before
 
 
 # ---------------------------------------------------------------- gloverec eval

@@ -37,3 +37,29 @@ def test_view_follows_compact_raw_and_legacy_gloves(emulator, tmp_path, mode):
 def test_view_of_a_silent_port_is_one_line(tmp_path):
     r = cli("view", "--glove", f"mcap:{tmp_path / 'missing.mcap'}", "--video", str(tmp_path / "v.mp4"))
     assert r.returncode == 1 and r.stderr.count("\n") == 1 and "missing.mcap" in r.stderr, r.stderr
+
+
+def test_a_port_whose_connections_wait_out_time_wait_serves_the_view_again():
+    """Re-running `--view web` soon after a browser's session: only TIME-WAIT sockets are left on the port, which the
+    view's server may bind (SO_REUSEADDR), so the pre-flight check must not call it in use; a listener still is."""
+    import socket
+
+    from recorder.config import ConfigError
+    from recorder.view.process import ViewSpec, check
+
+    server = socket.socket()
+    server.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    server.bind(("127.0.0.1", 0))
+    server.listen()
+    port = server.getsockname()[1]
+    spec = ViewSpec("web", "127.0.0.1", port)
+    with pytest.raises(ConfigError, match=f"cannot serve the view on 127.0.0.1:{port}"):
+        check(spec)  # something listens there
+    client = socket.create_connection(("127.0.0.1", port))
+    accepted, _ = server.accept()
+    accepted.close()  # the server's end closes first: it waits out TIME-WAIT on the port
+    client.close()
+    server.close()
+    with socket.socket() as plain, pytest.raises(OSError):
+        plain.bind(("127.0.0.1", port))  # a plain bind is refused: what the check did before
+    check(spec)

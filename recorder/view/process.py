@@ -104,6 +104,9 @@ def check(spec: ViewSpec) -> None:
         raise ConfigError("--view native needs a display (DISPLAY is not set): use --view web (a browser page)")
     if spec.kind == "web":
         with socket.socket() as s:
+            # as the view's HTTP server binds (http.server's allow_reuse_address): a port whose last connections
+            # wait out TIME-WAIT after a browser's session is free to serve again; one something listens on is not
+            s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
             try:
                 s.bind((spec.host, spec.port))
             except OSError as exc:

@@ -230,3 +230,20 @@ def test_a_task_from_outside_the_package_records_through_the_cli(tmp_path):
     assert ds[0]["task"] == "make a fist"
     r = gloverec("record", "--task", "toy_fist", "--root", str(tmp_path / "y"), env={**env, "GLOVEREC_PLUGINS": "nope"})
     assert r.returncode == 1 and "cannot load the plugin nope ($GLOVEREC_PLUGINS)" in r.stderr, r.stderr
+
+
+def test_a_physics_blow_up_is_flagged_from_its_step_to_the_episode_s_end():
+    """MuJoCo resets a simulation whose state went bad ("Nan, Inf or huge value in QVEL ...") and goes on: the
+    episode's info says when it happened (eval's --json shows it; the recorder's saved line and sidecar too)."""
+    env = envs.make("pose", "glovehand")
+    u = env.unwrapped
+    env.reset(seed=0)
+    zero = np.zeros(env.action_space.shape)
+    assert "physics_unstable_s" not in env.step(zero)[-1]
+    u.data.qvel[0] = np.nan  # what a physics explosion leaves
+    info = env.step(zero)[-1]
+    assert info["physics_unstable_s"] == round(2 / u.config.control_hz, 3)  # the second step
+    assert env.step(zero)[-1]["physics_unstable_s"] == info["physics_unstable_s"]  # kept: the first time
+    _, info = env.reset(seed=0)
+    assert "physics_unstable_s" not in info and "physics_unstable_s" not in env.step(zero)[-1]
+    env.close()

@@ -2,6 +2,7 @@
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -309,6 +310,16 @@ def test_inspect_reports_episodes_and_plots(pose_dataset, tmp_path):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
     r = cli("inspect", "--repo-id", "test/pose", "--root", str(root), "--episode", "9", "--plot", str(png))
     assert r.returncode == 1 and "no episode 9" in r.stderr
+    # an episode whose physics blew up (the recorder's sidecar says when) is flagged in the table
+    blown = tmp_path / "blown"
+    shutil.copytree(root, blown)
+    sidecar = blown / "meta" / "gloverec" / "episodes.jsonl"
+    lines = [json.loads(x) for x in sidecar.read_text().splitlines() if x.strip()]
+    lines[2]["physics_unstable_s"] = 4.8
+    sidecar.write_text("".join(json.dumps(x) + "\n" for x in lines))
+    r = cli("inspect", "--repo-id", "test/pose", "--root", str(blown), "--no-plot")
+    flagged = [x for x in r.stdout.splitlines() if "physics blew up at 4.8 s" in x]
+    assert r.returncode == 0 and len(flagged) == 1 and flagged[0].split()[0] == "2", r.stdout
     broken = tmp_path / "broken"
     broken.mkdir()
     (broken / "meta").mkdir()

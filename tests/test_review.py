@@ -138,6 +138,23 @@ def test_the_player_renders_frames_of_a_camera_less_episode_on_request(pose_reco
     assert plots["frames"] == session.lengths[0] and len(plots["series"][0]["action"]) == plots["frames"]
 
 
+def test_the_list_says_where_the_physics_blew_up(pose_recording, tmp_path):
+    import json
+    import shutil
+
+    from recorder.review.session import Session
+
+    src, _ = pose_recording
+    copy = tmp_path / "blown"
+    shutil.copytree(src, copy)
+    sidecar = copy / "meta" / "gloverec" / "episodes.jsonl"
+    lines = [json.loads(x) for x in sidecar.read_text().splitlines() if x.strip()]
+    lines[1]["physics_unstable_s"] = 4.8  # as the recorder writes it when MuJoCo reset the simulation
+    sidecar.write_text("".join(json.dumps(x) + "\n" for x in lines))
+    rows = Session(POSE_REPO, root=str(copy)).describe()["episodes"]
+    assert [r["episode"] for r in rows if "physics blew up at 4.8 s" in (r["intent"] or "")] == [1]
+
+
 @pytest.mark.process
 def test_the_player_shows_a_camera_episode_decoded_from_its_video(tmp_path):
     from recorder.review.frames import Frames

@@ -37,6 +37,8 @@ from envs.tasks.perturb import perturb
 from recorder import config, quat
 from recorder.config import STRICT, Positive
 
+UNSTABLE = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQACC)
+
 CAMERAS = ("front", "top", "side")
 
 
@@ -271,6 +273,7 @@ class HandEnv(gym.Env):
         mujoco.mj_resetData(self.model, self.data)
         self.t = 0.0
         self.steps = 0
+        self.unstable_s = None  # when the physics blew up this episode (MuJoCo reset the state), if it did
         self._base_rot = quat.IDENTITY.copy()
         self._reset_task()
         pos, q = self._base_target(0.0)
@@ -310,7 +313,10 @@ class HandEnv(gym.Env):
         if self.pivot is not None:  # the palm turns about the task's pivot, not about the palm frame's origin
             pos = pos + quat.rotate(q, self.pivot) - quat.rotate(turned, self.pivot)
         self._set_base_target(pos, turned)
+        blowups = self._blowups()
         mujoco.mj_step(self.model, self.data, nstep=self.n_substeps)
+        if self._blowups() > blowups and self.unstable_s is None:
+            self.unstable_s = round(self.t, 3)
         self.steps += 1
         success, terminated, reward = self._evaluate()
         truncated = not terminated and self.t >= self.config.episode_s - 1e-9
@@ -318,8 +324,16 @@ class HandEnv(gym.Env):
         info["applied_action"] = a.astype(np.float32)
         return self._observation(), float(reward), bool(terminated), bool(truncated), info
 
+    def _blowups(self) -> int:
+        """MuJoCo's count of unstable steps ("Nan, Inf or huge value in QACC ..."), after each of which it resets the
+        simulation's state: the episode goes on from another state, which a saved episode must say."""
+        return sum(int(self.data.warning[w].number) for w in UNSTABLE)
+
     def _info(self, success: bool) -> dict:
-        return {"is_success": bool(success), "t": self.t}
+        info = {"is_success": bool(success), "t": self.t}
+        if self.unstable_s is not None:
+            info["physics_unstable_s"] = self.unstable_s
+        return info
 
     def _observation(self) -> dict:
         d = self.data

@@ -54,6 +54,7 @@ def episodes_table(meta) -> list[dict]:
                 "task": ep["tasks"][0] if len(ep["tasks"]) else "",
                 **{k: s.get(k) for k in COLUMNS if k != "frames"},
                 "demonstration": s.get("demonstration"),  # the human-like demonstrator's intent, if it made the take
+                "physics_unstable_s": s.get("physics_unstable_s"),  # when MuJoCo reset a blown-up simulation
             }
         )
     return rows
@@ -258,11 +259,15 @@ def run(args) -> int:
             f"{r['episode']:>3} {r['frames']:>6} {r['seconds']:>5} {_yes_no(r['success']):>3} "
             f"{f(r['glove_late']):>5} {f(r['glove_dropped']):>5} {f(r['loop_overruns']):>7} "
             f"{f(r['jitter_ms_p99'], 2):>8} {f(r['latency_ms_p99']):>6} {f(r['retarget_error_mm_mean']):>8}  "
-            f"{r['task']}{_meant(r['demonstration'])}"
+            f"{r['task']}{_meant(r['demonstration'])}{_blew_up(r['physics_unstable_s'])}"
         )
     if plot:
         print(f"plot of episode {args.episode}: {plot}")
     return 0
+
+
+def _blew_up(at_s) -> str:
+    return "" if at_s is None else f"  [physics blew up at {at_s} s: MuJoCo reset the simulation]"
 
 
 def _yes_no(flag) -> str:

@@ -261,7 +261,9 @@ class Recorder:
                 f"episode {index} saved: {result['frames']} frames, success={result['success']}, "
                 f"late {result['glove_late']}, dropped {result['glove_dropped']}, "
                 f"latency p99 {result['latency_ms_p99']} ms"
-            )
+                + (f"; the physics blew up at {result['physics_unstable_s']} s (MuJoCo reset the simulation: review "
+                   "it before training)" if result.get("physics_unstable_s") is not None else "")
+            )  # fmt: skip
 
     def close(self) -> None:
         self.glove.close()
@@ -505,6 +507,8 @@ class Recorder:
             "start_device_time_s": device_start,
             **stats.summary(self.glove.counters()),
         }
+        if self.u.unstable_s is not None:  # MuJoCo reset the state mid-episode: said in the line and the sidecar
+            result["physics_unstable_s"] = self.u.unstable_s
         if self.takeover is not None:
             result["takeover"] = {"policy": self.cfg.policy, **self.takeover.summary()}
         if self.dart is not None:

@@ -84,6 +84,7 @@ class Session:
     def _row(self, e: int) -> dict:
         meta, rec = self.episodes[e], self.records.get(e, {})
         intent = rec.get("demonstration") or {}
+        blew_up = rec.get("physics_unstable_s")  # MuJoCo reset a blown-up simulation then: the joint plots jump
         return {
             "episode": e,
             "frames": self.lengths[e],
@@ -93,8 +94,11 @@ class Session:
             "glove_late": rec.get("glove_late"),
             "glove_dropped": rec.get("glove_dropped"),
             "seed": rec.get("seed"),
-            "intent": ", ".join(f"{k} {v}" for k, v in intent.items() if k in ("strategy", "failure") and v) or None,
-        }
+            "intent": "; ".join(filter(None, (
+                ", ".join(f"{k} {v}" for k, v in intent.items() if k in ("strategy", "failure") and v),
+                f"physics blew up at {blew_up} s" if blew_up is not None else "",
+            ))) or None,
+        }  # fmt: skip
 
     def rows(self, e: int) -> dict[str, np.ndarray]:
         """Episode ``e``'s ``action`` and ``observation.state`` (frames x values), read from its data file."""

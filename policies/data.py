@@ -24,6 +24,7 @@ from recorder import GloverecError
 from recorder.dataset_check import check_dataset
 from recorder.hub.names import parse_repo_id
 from recorder.hub.store import Hub
+from recorder.paths import recordings_dir
 from recorder.record.sidecar import read_sidecar
 from recorder.video_backend import video_backend
 
@@ -60,7 +61,14 @@ def resolve(
         check_dataset(path)
         return DatasetRef(repo_id, path.absolute(), None)
 
-    v = Hub(hub).checked(repo_id, version)
+    store = Hub(hub)
+    if not store.versions(repo_id):  # `record` writes to datasets/recordings, train and replay read the hub
+        recording = recordings_dir() / repo_id
+        if (recording / "meta" / "info.json").is_file():
+            raise GloverecError(f"no dataset {repo_id} in the hub {store.root}, but a recording of it is at "
+                                f"{recording}: pass --root {recording}, or push it first (gloverec push --repo-id "
+                                f"{repo_id} --root {recording})")  # fmt: skip
+    v = store.checked(repo_id, version)
     return DatasetRef(repo_id, v.path.resolve(), v.tag)
 
 

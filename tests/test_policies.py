@@ -502,6 +502,17 @@ def test_bad_input_on_real_data_is_one_line(dataset, trained, tmp_path):
     assert not (tmp_path / "n").exists()
 
 
+def test_a_recording_not_yet_pushed_is_named_when_the_hub_lacks_it(dataset, tmp_path):
+    """`record` writes datasets/recordings/USER/NAME, `train` and `replay` read the hub: the error says where the
+    recording is and how to use it (each test runs in an empty folder of its own)."""
+    shutil.copytree(dataset, Path("datasets/recordings") / REPO)
+    for args in (["train", "--out", str(tmp_path / "out")], ["replay", "--episode", "0"]):
+        r = cli(*args, "--repo-id", REPO)
+        err = one_line_error(r, "but a recording of it is at datasets/recordings/test/pose: pass --root")
+        assert "gloverec push --repo-id test/pose --root datasets/recordings/test/pose" in err
+    assert not (tmp_path / "out").exists()
+
+
 def test_a_dataset_without_a_successful_episode_names_all_episodes(dataset, tmp_path):
     """Every take marked failed: the error says how to train on them anyway."""
     copy = tmp_path / "failed"

@@ -430,7 +430,12 @@ def describe_inputs(cfg) -> str:
     for key, ft in cfg.input_features.items():
         parts.append(f"{key} ({len(idx)} of {ft.shape[0]} elements)" if key == "observation.state" and idx else key)
     if getattr(cfg, "reads_task", False):
-        parts.append(f"task ({len(cfg.trained_instructions)} of the task's {len(cfg.instructions)} instructions)")
+        parts.append(
+            f"task ({len(cfg.trained_instructions or cfg.instructions)} of the task's {len(cfg.instructions)} "
+            "instructions)"
+        )
+    elif "task" in (getattr(cfg, "inputs", None) or ()):  # asked for, and left out: say why, not silently
+        parts.append("not the task: every training episode has the same instruction, which tells the policy nothing")
     return ", ".join(parts)
 
 

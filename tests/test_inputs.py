@@ -60,6 +60,12 @@ def test_a_robot_policy_reads_neither_the_goal_nor_the_object_inside_the_state()
     assert list(images_only.config.input_features) == ["observation.images.top"] and not images_only.config.reads_task
     one_instruction = _policy(inputs.ROBOT, instructions=("pick it up",))  # lerobot-record's single_task
     assert not one_instruction.config.reads_task and one_instruction.task_embedding is None
+    from policies.train import describe_inputs  # what `gloverec train` prints: the instruction left out, and why
+
+    assert "not the task: every training episode has the same instruction" in describe_inputs(one_instruction.config)
+    assert "not the task" not in describe_inputs(policy.config) and "not the task" not in describe_inputs(
+        images_only.config
+    )
 
 
 @settings(max_examples=40, deadline=None)

@@ -33,6 +33,12 @@ def replay(
         have = f"it has {total}: 0..{total - 1}" if total else "it has none"
         raise GloverecError(f"{ref.repo_id} has no episode {episode} ({have})")
     meta = sidecar(ref.root).get(episode)
+    if meta is not None and meta.get("seed") is None and (meta.get("trimmed_s") or [0])[0]:
+        raise GloverecError(
+            f"episode {episode} of {ref.repo_id} was trimmed at its start ({meta['trimmed_s'][0]:g} s, gloverec "
+            "edit): a replay starts at the reset, which it no longer has; replay the original episode "
+            f"({meta.get('edited_from', 'its source')} of the dataset it was edited from)"
+        )
     if meta is None or meta.get("seed") is None:
         raise GloverecError(
             f"episode {episode} of {ref.repo_id} has no seed in {ref.root}/meta/gloverec "

@@ -51,6 +51,10 @@ def test_edit_deletes_trims_and_relabels_into_a_new_dataset(pose_recording, tmp_
 
     replayed = cli("replay", "--repo-id", POSE_REPO, "--root", str(out), "--episode", "2", "--json")
     assert replayed.returncode == 0 and json.loads(replayed.stdout)["reproduced"], replayed.stderr
+    refused = cli("replay", "--repo-id", POSE_REPO, "--root", str(out), "--episode", "1")  # trimmed at its start
+    err = refused.stderr.strip()
+    assert refused.returncode == 1 and "\n" not in err and "not recorded by gloverec" not in err, err
+    assert "was trimmed at its start (0.5 s, gloverec edit)" in err and "replay the original episode (2 " in err
 
 
 def test_edit_on_the_hub_publishes_the_next_version_and_keeps_the_old(pose_recording, tmp_path):

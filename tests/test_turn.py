@@ -48,6 +48,9 @@ def test_the_knob_held_at_the_mark_and_released_succeeds_short_of_it_fails():
     env.t = env.schedule["grip"]  # the live view's line, once the hand is down
     way = "left" if env.target > 0 else "right"
     assert env.guidance() == f"turn {env.config.tolerance_deg + 2:.0f}° {way}"
+    _knob_at(env, env.target + np.sign(env.target) * (tol + np.radians(2)))  # past it: back, against the instruction
+    back = "right" if env.target > 0 else "left"
+    assert env.guidance() == f"past the mark: turn {env.config.tolerance_deg + 2:.0f}° back {back}"
     _knob_at(env, env.target - np.sign(env.target) * 0.5 * tol)  # within the tolerance: after hold_s, not before
     held = _evaluate_for(env, env.config.hold_s + 0.1)
     hold_steps = int(round(env.config.hold_s * env.config.control_hz))

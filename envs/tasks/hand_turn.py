@@ -195,7 +195,10 @@ class HandTurnEnv(HandEnv):
             return None
         left = -self.error_deg()
         if abs(left) > self.config.tolerance_deg:
-            return f"turn {abs(left):.0f}° {'left' if left > 0 else 'right'}"
+            way = "left" if left > 0 else "right"
+            if (left > 0) != (self.target > 0):  # against the instruction's way: say why, not a contradiction
+                return f"past the mark: turn {abs(left):.0f}° back {way}"
+            return f"turn {abs(left):.0f}° {way}"
         return "let go" if self._held_s >= self.config.hold_s else "hold it there"
 
     def instruction(self) -> str:

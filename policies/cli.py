@@ -150,13 +150,14 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 
 def _also(text: str, hub: str | None):
-    """An --also dataset: a folder holding one (its id: the folder's last two names), else USER/NAME[@vN] in the
-    hub."""
-    from policies.data import resolve  # torch and lerobot: not at start-up
+    """An --also dataset: a folder holding one (its id: the one it was recorded as, from our sidecar, else the
+    folder's last two names), else USER/NAME[@vN] in the hub."""
+    from policies.data import recorded_with, resolve  # torch and lerobot: not at start-up
 
     folder = Path(text)
     if (folder / "meta" / "info.json").is_file():
-        return resolve(f"{folder.absolute().parent.name}/{folder.name}", root=folder)  # as a recording's root names it
+        named = recorded_with(folder).get("repo_id") or f"{folder.absolute().parent.name}/{folder.name}"
+        return resolve(named, root=folder)
     if folder.exists():
         raise GloverecError(f"--also {text}: not a LeRobot dataset (no meta/info.json)")
     repo_id, _, version = text.partition("@")

@@ -99,6 +99,7 @@ def test_a_documented_takeover_session_stores_both_actions_and_flags_that_follow
         assert [s["frame"] for s in record["takeover"]["switches"]] == ([first] if first < len(flags) else [])
     summary = json.loads((work / "bc2" / "train_summary.json").read_text())
     assert summary["also"][0]["root"] == str(work / "grasp_takeover")
+    assert summary["also"][0]["repo_id"] == "me/grasp_takeover"  # as recorded, not the folder's parent's name
     assert summary["frames_by_wearer"] > 0
 
 

@@ -497,6 +497,7 @@ class Recorder:
             "success": success,
             "robot": cfg.robot,
             "env_task": cfg.task,
+            "repo_id": cfg.repo_id,  # a folder passed where a dataset is expected (train --also) says its own name
             "fps": cfg.fps,
             "glove": self.glove.name,
             "realtime": self.clock.realtime,

@@ -222,6 +222,7 @@ def test_web_view_in_a_browser(tmp_path):
             # the page's own keys (the terminal's), never the native view's F-keys, which a browser keeps for itself
             assert "→ n Enter next" in status and "Esc q stop" in status and "F9" not in status, status
             assert browser.find_element("id", "next").text == "next (→ n Enter)"
+            assert not browser.find_element("id", "takeover").is_displayed()  # a plain recording: nothing to take over
             browser.find_element("tag name", "body").send_keys("n")  # ends the episode
             rec.wait_for("episode 1 started")
             pid = browser.service.process.pid

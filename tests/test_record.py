@@ -316,10 +316,13 @@ def test_inspect_reports_episodes_and_plots(pose_dataset, tmp_path):
     sidecar = blown / "meta" / "gloverec" / "episodes.jsonl"
     lines = [json.loads(x) for x in sidecar.read_text().splitlines() if x.strip()]
     lines[2]["physics_unstable_s"] = 4.8
+    lines[3]["takeover"] = {"policy": "P", "frames_by_wearer": 52, "switches": [], "interventions": 1}
     sidecar.write_text("".join(json.dumps(x) + "\n" for x in lines))
     r = cli("inspect", "--repo-id", "test/pose", "--root", str(blown), "--no-plot")
     flagged = [x for x in r.stdout.splitlines() if "physics blew up at 4.8 s" in x]
     assert r.returncode == 0 and len(flagged) == 1 and flagged[0].split()[0] == "2", r.stdout
+    took_over = [x for x in r.stdout.splitlines() if "[the wearer drove 52 frames]" in x]  # and a takeover's share
+    assert len(took_over) == 1 and took_over[0].split()[0] == "3", r.stdout
     broken = tmp_path / "broken"
     broken.mkdir()
     (broken / "meta").mkdir()

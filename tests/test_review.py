@@ -138,7 +138,7 @@ def test_the_player_renders_frames_of_a_camera_less_episode_on_request(pose_reco
     assert plots["frames"] == session.lengths[0] and len(plots["series"][0]["action"]) == plots["frames"]
 
 
-def test_the_list_says_where_the_physics_blew_up(pose_recording, tmp_path):
+def test_the_list_says_where_the_physics_blew_up_and_the_wearer_took_over(pose_recording, tmp_path):
     import json
     import shutil
 
@@ -150,9 +150,11 @@ def test_the_list_says_where_the_physics_blew_up(pose_recording, tmp_path):
     sidecar = copy / "meta" / "gloverec" / "episodes.jsonl"
     lines = [json.loads(x) for x in sidecar.read_text().splitlines() if x.strip()]
     lines[1]["physics_unstable_s"] = 4.8  # as the recorder writes it when MuJoCo reset the simulation
+    lines[2]["takeover"] = {"policy": "P", "frames_by_wearer": 52, "switches": [], "interventions": 1}
     sidecar.write_text("".join(json.dumps(x) + "\n" for x in lines))
     rows = Session(POSE_REPO, root=str(copy)).describe()["episodes"]
     assert [r["episode"] for r in rows if "physics blew up at 4.8 s" in (r["intent"] or "")] == [1]
+    assert [r["episode"] for r in rows if "the wearer drove 52 frames" in (r["intent"] or "")] == [2]
 
 
 @pytest.mark.process

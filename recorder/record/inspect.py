@@ -55,6 +55,7 @@ def episodes_table(meta) -> list[dict]:
                 **{k: s.get(k) for k in COLUMNS if k != "frames"},
                 "demonstration": s.get("demonstration"),  # the human-like demonstrator's intent, if it made the take
                 "physics_unstable_s": s.get("physics_unstable_s"),  # when MuJoCo reset a blown-up simulation
+                "frames_by_wearer": (s.get("takeover") or {}).get("frames_by_wearer"),  # a takeover recording's
             }
         )
     return rows
@@ -259,11 +260,16 @@ def run(args) -> int:
             f"{r['episode']:>3} {r['frames']:>6} {r['seconds']:>5} {_yes_no(r['success']):>3} "
             f"{f(r['glove_late']):>5} {f(r['glove_dropped']):>5} {f(r['loop_overruns']):>7} "
             f"{f(r['jitter_ms_p99'], 2):>8} {f(r['latency_ms_p99']):>6} {f(r['retarget_error_mm_mean']):>8}  "
-            f"{r['task']}{_meant(r['demonstration'])}{_blew_up(r['physics_unstable_s'])}"
+            f"{r['task']}{_meant(r['demonstration'])}{_took_over(r['frames_by_wearer'])}"
+            f"{_blew_up(r['physics_unstable_s'])}"
         )
     if plot:
         print(f"plot of episode {args.episode}: {plot}")
     return 0
+
+
+def _took_over(frames) -> str:
+    return "" if frames is None else f"  [the wearer drove {frames} frames]"
 
 
 def _blew_up(at_s) -> str:

@@ -261,6 +261,8 @@ class Recorder:
                 f"episode {index} saved: {result['frames']} frames, success={result['success']}, "
                 f"late {result['glove_late']}, dropped {result['glove_dropped']}, "
                 f"latency p99 {result['latency_ms_p99']} ms"
+                + (f"; the wearer drove {result['takeover']['frames_by_wearer']} frames"
+                   if result.get("takeover") else "")
                 + (f"; the physics blew up at {result['physics_unstable_s']} s (MuJoCo reset the simulation: review "
                    "it before training)" if result.get("physics_unstable_s") is not None else "")
             )  # fmt: skip

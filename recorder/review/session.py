@@ -85,6 +85,7 @@ class Session:
         meta, rec = self.episodes[e], self.records.get(e, {})
         intent = rec.get("demonstration") or {}
         blew_up = rec.get("physics_unstable_s")  # MuJoCo reset a blown-up simulation then: the joint plots jump
+        wearer = (rec.get("takeover") or {}).get("frames_by_wearer")  # a takeover recording's corrections
         return {
             "episode": e,
             "frames": self.lengths[e],
@@ -96,6 +97,7 @@ class Session:
             "seed": rec.get("seed"),
             "intent": "; ".join(filter(None, (
                 ", ".join(f"{k} {v}" for k, v in intent.items() if k in ("strategy", "failure") and v),
+                f"the wearer drove {wearer} frames" if wearer is not None else "",
                 f"physics blew up at {blew_up} s" if blew_up is not None else "",
             ))) or None,
         }  # fmt: skip

@@ -39,6 +39,8 @@ PAGE = """<!doctype html>
 <div>BUTTONS</div>
 <script>
 const KEYS = KEYMAP;
+const TAKEOVER_ONLY = TAKEOVERONLY;
+for (const id of TAKEOVER_ONLY) document.getElementById(id).hidden = true;
 const press = (name) => fetch("/key/" + name, {method: "POST"});
 for (const b of document.querySelectorAll("button")) b.onclick = () => press(b.id);
 document.addEventListener("keydown", (e) => {
@@ -49,6 +51,9 @@ document.addEventListener("keydown", (e) => {
 async function status() {
   try {
     const rows = (await (await fetch("/status")).json()).rows;
+    // TAKEOVER_ONLY's buttons do something only in a takeover recording, whose status has a "control" row
+    const takeover = rows.some(([k]) => k === "control");
+    for (const id of TAKEOVER_ONLY) document.getElementById(id).hidden = !takeover;
     document.getElementById("status").innerHTML = rows.map(
       ([k, v]) => `<tr class="${v.includes("LOST") ? "warn" : k === "workspace" || v.startsWith("WEARER") ?
         "edge" : ""}">` +
@@ -62,10 +67,16 @@ status();
 """
 
 
-PAGE = PAGE.replace(
-    "BUTTONS",
-    "".join(f'<button id="{a}">{overlay.ACTIONS[a]} ({overlay.WEB_KEY_NAMES[a]})</button>' for a in overlay.WEB_KEYS),
-).replace("KEYMAP", json.dumps({key: action for action, keys in overlay.WEB_KEYS.items() for key in keys}))
+PAGE = (
+    PAGE.replace(
+        "BUTTONS",
+        "".join(
+            f'<button id="{a}">{overlay.ACTIONS[a]} ({overlay.WEB_KEY_NAMES[a]})</button>' for a in overlay.WEB_KEYS
+        ),
+    )
+    .replace("KEYMAP", json.dumps({key: action for action, keys in overlay.WEB_KEYS.items() for key in keys}))
+    .replace("TAKEOVERONLY", json.dumps(list(overlay.TAKEOVER_ONLY)))
+)
 
 
 class _Frames:

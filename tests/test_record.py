@@ -562,3 +562,39 @@ def test_lines_that_arrive_together_each_act_at_once():
     finally:
         control.close()
         os.close(w)
+
+
+@pytest.mark.process
+def test_ctrl_c_on_a_terminal_starts_the_stopped_line_afresh(tmp_path):
+    """On a terminal the recorder redraws a status line without a newline; Ctrl-C's "stopped: ..." must not be
+    glued to it ("glove upstopped: ...")."""
+    import pty
+
+    controller, terminal = pty.openpty()
+    proc = subprocess.Popen([sys.executable, "-m", "recorder.cli", "record", "--glove", "emulator", "--task", "pose",
+                             "--episodes", "1", "--episode-time-s", "60", "--view", "none", "--no-log",
+                             "--repo-id", "test/tty", "--root", str(tmp_path / "ds")],
+                            stdin=terminal, stdout=terminal, stderr=terminal)  # fmt: skip
+    os.close(terminal)
+    seen = b""
+    try:
+        while b"latency p99" not in seen.rsplit(b"\n", 1)[-1]:  # the status line is drawn: the episode is under way
+            chunk = os.read(controller, 4096)
+            assert chunk, seen.decode(errors="replace")[-2000:]
+            seen += chunk
+        proc.send_signal(signal.SIGINT)
+        while True:
+            try:
+                chunk = os.read(controller, 4096)
+            except OSError:  # the terminal closed with the process
+                break
+            if not chunk:
+                break
+            seen += chunk
+        assert proc.wait(timeout=120) == 130
+    finally:
+        proc.kill()
+        os.close(controller)
+    text = seen.decode(errors="replace")
+    at = text.index("stopped: ")
+    assert text[:at].endswith(("\n", "\x1b[K")), repr(text[at - 80 : at + 20])

@@ -279,6 +279,9 @@ class Recorder:
         self.live.close()
         self.control.close()
         self.rig.close()  # the wrist and the task (the glove again: closing it twice is fine)
+        if self.out is not None and self.out.isatty():  # the status line ends: what is printed next starts afresh
+            self.out.write("\r\x1b[K")
+            self.out.flush()
 
     # ------------------------------------------------------------ one episode
     def _one_episode(self, index: int) -> tuple[str, dict | None]:

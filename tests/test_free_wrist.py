@@ -160,6 +160,7 @@ def test_record_relocate_with_a_marker_video_stores_the_base_position(tmp_path, 
         ("marker:{d}/camera.json", "{d}/camera.json", "cannot open the camera or video"),  # not a video
         ("marker:{d}/wrist.mkv", "{d}/wrist.mkv", "bad camera calibration"),
         ("laser:3", "{d}/camera.json", "unknown wrist source"),
+        ("marker:emulated", "{d}/camera.json", "--wrist-camera is a marker camera's calibration"),  # it uses none
     ],
 )
 def test_a_bad_wrist_is_one_line_before_anything_is_recorded(tmp_path, wrist_video, wrist, camera, says):

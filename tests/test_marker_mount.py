@@ -105,6 +105,13 @@ def test_record_takes_the_saved_mounting(calibrated, monkeypatch, tmp_path):
     finally:
         track.close()
     assert said == [f"the marker's mounting on the glove: 12.2° off flat (from {folder / 'marker_mount.json'})"]
+    # the plain marker:emulated is another marker than the one calibrated (marker:emulated:7,-6,8): the saved
+    # mounting is not applied to it, and the line says so
+    said.clear()
+    track = _open_wrist("marker:emulated", said)
+    track.close()
+    np.testing.assert_allclose(track.fusion.marker_in_palm, quat.IDENTITY)
+    assert len(said) == 1 and "was calibrated for marker:emulated:7,-6,8, not marker:emulated: not applied" in said[0]
     monkeypatch.setenv("GLOVEREC_CALIBRATION_DIR", str(tmp_path))  # none saved: flat on the back of the hand
     track = _open_wrist("marker:emulated", said)
     track.close()

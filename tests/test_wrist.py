@@ -218,6 +218,20 @@ def test_a_camera_calibration_file_round_trips_and_a_bad_one_is_one_line(tmp_pat
     (tmp_path / "bad.json").write_text('{"width": 640}')
     with pytest.raises(GloverecError, match="bad camera calibration .*bad.json"):
         CameraModel.load(tmp_path / "bad.json")
+    good = json.loads((tmp_path / "cam.json").read_text())
+    garbage = bytes(np.random.default_rng(0).integers(0, 256, 300, dtype=np.uint8))
+    for content, says in (
+        (garbage, "bad camera calibration"),  # 300 random bytes
+        (json.dumps({k: v for k, v in good.items() if k != "cy"}).encode(), "cy is missing"),
+        (json.dumps({**good, "fx": -5}).encode(), "fx must be positive, got -5"),
+        (json.dumps({**good, "fy": "abc"}).encode(), "fy must be a number, got 'abc'"),
+        (json.dumps({**good, "dist": [0, 0]}).encode(), "dist must be OpenCV's 5 distortion numbers"),
+        (b"[1, 2]", "expected a JSON object"),
+    ):
+        (tmp_path / "bad.json").write_bytes(content)
+        with pytest.raises(GloverecError, match=says) as caught:
+            CameraModel.load(tmp_path / "bad.json")
+        assert "\n" not in str(caught.value) and "__init__" not in str(caught.value)
 
 
 def test_gloverec_wrist_follows_a_marker_in_a_video(tmp_path, scene):

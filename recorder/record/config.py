@@ -121,6 +121,7 @@ class RecordConfig(SessionConfig):
         from envs import check_names, get_task  # MuJoCo (0.2 s): not at start-up
 
         check_names(self.robot, self.task)
+        self.check_wrist_files()
         if self.demonstrator != "scripted":
             from recorder.demonstrator import make_demonstrator  # the demonstrators: not at start-up
 

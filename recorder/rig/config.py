@@ -10,7 +10,7 @@ from typing import Annotated, Literal
 
 from pydantic import AfterValidator
 
-from recorder.config import STRICT, Positive, setting
+from recorder.config import STRICT, ConfigError, Positive, setting
 from recorder.glove.config import SPECS, GloveConfig
 from recorder.wrist.config import SCRIPTED, WristConfig
 
@@ -63,6 +63,21 @@ class SessionConfig:
         metavar="FILE",
     )
     marker_mm: Annotated[float, Positive] = setting(40.0, "the marker's printed side, mm", metavar="MM")
+
+    def check_wrist_files(self) -> None:
+        """The wrist's files, before anything opens: a camera calibration only for a source that films with a
+        calibrated camera (marker:CAMERA), checked; a mounting file checked. One line for what is wrong."""
+        if self.wrist_camera is not None:
+            if self.wrist_config.kind != "marker":
+                raise ConfigError(f"--wrist-camera is a marker camera's calibration (marker:CAMERA); {self.wrist} "
+                                  "uses none (marker:emulated films with the simulator's own camera)")  # fmt: skip
+            from recorder.wrist.marker import CameraModel  # numpy only
+
+            CameraModel.load(self.wrist_camera)
+        if self.wrist_mount is not None:
+            from recorder.wrist.mounting import MarkerMount
+
+            MarkerMount.load(self.wrist_mount)
 
     @property
     def glove_config(self) -> GloveConfig:

@@ -70,7 +70,7 @@ def open_wrist_track(cfg: SessionConfig, *, fast: bool = False, wearer=None, say
         return None
     source = open_wrist(wrist, cfg.wrist_camera, cfg.marker_mm, paced=not fast, glove=cfg.glove_config,
                         wearer=wearer)  # fmt: skip
-    return wrist_track(source, mounting(source, cfg.wrist_mount, say=say)).open()
+    return wrist_track(source, mounting(source, cfg.wrist_mount, say=say, spec=str(wrist))).open()
 
 
 def zero_wrist(track: WristTrack, env, t: float, palm, wait=None) -> None:

@@ -79,11 +79,37 @@ class CameraModel:
 
     @classmethod
     def load(cls, path: str | Path) -> CameraModel:
+        """A saved calibration (``save``, `gloverec calibrate --camera`), checked: a file that is not one, or one
+        with a value missing, of the wrong type or out of range, is one line naming it."""
         try:
-            data = json.loads(Path(path).read_text())
-            return cls(**{**data, "dist": tuple(data.get("dist", (0.0,) * 5))})
-        except (OSError, ValueError, TypeError) as exc:
+            data = json.loads(Path(path).read_bytes())
+        except (OSError, ValueError) as exc:
             raise GloverecError(f"bad camera calibration {path}: {exc}") from None
+        if not isinstance(data, dict):
+            raise GloverecError(f"bad camera calibration {path}: expected a JSON object (gloverec calibrate --camera)")
+        values = {}
+        for name, kind in (("width", int), ("height", int), ("fx", float), ("fy", float), ("cx", float), ("cy", float)):
+            v = data.get(name)
+            if v is None:
+                raise GloverecError(f"bad camera calibration {path}: {name} is missing")
+            if (
+                isinstance(v, bool)
+                or not isinstance(v, (int, float))
+                or not np.isfinite(v)
+                or (kind is int and v != int(v))
+            ):
+                raise GloverecError(f"bad camera calibration {path}: {name} must be a number, got {v!r}")
+            if name in ("width", "height", "fx", "fy") and v <= 0:
+                raise GloverecError(f"bad camera calibration {path}: {name} must be positive, got {v!r}")
+            values[name] = kind(v)
+        dist = data.get("dist", (0.0,) * 5)
+        if (
+            not isinstance(dist, list | tuple)
+            or len(dist) != 5
+            or not all(isinstance(d, (int, float)) and not isinstance(d, bool) and np.isfinite(d) for d in dist)
+        ):
+            raise GloverecError(f"bad camera calibration {path}: dist must be OpenCV's 5 distortion numbers")
+        return cls(**values, dist=tuple(float(d) for d in dist))
 
 
 @dataclass(frozen=True)

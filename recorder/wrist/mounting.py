@@ -250,11 +250,12 @@ def _enough_turning(palm) -> np.ndarray:
 # ---------------------------------------------------------------- what a recording uses
 
 
-def mounting(source=None, path=None, folder=None, say=None) -> np.ndarray:
+def mounting(source=None, path=None, folder=None, say=None, spec: str | None = None) -> np.ndarray:
     """The marker's mounting a recording's wrist fusion takes (a quaternion): the file ``path`` when given; a
     session log's own (``source.marker_in_palm``: what the recording used); else the one `gloverec calibrate
-    --wrist` saved in the calibrations' folder (``folder``, as recorder/paths.py calibration_dir); else flat on
-    the back of the hand. ``say``: where the line saying which goes."""
+    --wrist` saved in the calibrations' folder (``folder``, as recorder/paths.py calibration_dir), if it was
+    calibrated with this wrist source (``spec``; another source's marker is another marker: not applied, and said);
+    else flat on the back of the hand. ``say``: where the line saying which goes."""
     logged = getattr(source, "marker_in_palm", None)
     if path is None and logged is not None:
         q = np.asarray(logged, float)
@@ -265,6 +266,11 @@ def mounting(source=None, path=None, folder=None, say=None) -> np.ndarray:
         if saved and not path.exists():
             return MARKER_ON_BACK.copy()
         mount = MarkerMount.load(path)
+        if saved and spec and mount.source and mount.source != spec:
+            if say is not None:
+                say(f"the marker mounting saved in {path} was calibrated for {mount.source}, not {spec}: not applied "
+                    f"(flat on the back of the hand; --wrist-mount {path} applies it)")  # fmt: skip
+            return MARKER_ON_BACK.copy()
         q = mount.q
         where = f"from {path}"
     if say is not None:

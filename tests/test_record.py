@@ -318,7 +318,9 @@ def test_inspect_reports_episodes_and_plots(pose_dataset, tmp_path):
     lines[2]["physics_unstable_s"] = 4.8
     lines[3]["takeover"] = {"policy": "P", "frames_by_wearer": 52, "switches": [], "interventions": 1}
     sidecar.write_text("".join(json.dumps(x) + "\n" for x in lines))
-    r = cli("inspect", "--repo-id", "test/pose", "--root", str(blown), "--no-plot")
+    before = sorted(p.name for p in tmp_path.iterdir())
+    r = cli("inspect", "--repo-id", "test/pose", "--root", str(blown))  # no --plot: nothing written beside it
+    assert sorted(p.name for p in tmp_path.iterdir()) == before and "plot of episode" not in r.stdout
     flagged = [x for x in r.stdout.splitlines() if "physics blew up at 4.8 s" in x]
     assert r.returncode == 0 and len(flagged) == 1 and flagged[0].split()[0] == "2", r.stdout
     took_over = [x for x in r.stdout.splitlines() if "[the wearer drove 52 frames]" in x]  # and a takeover's share

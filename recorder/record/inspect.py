@@ -123,14 +123,14 @@ def plot_episode(meta, episode: int, out: Path) -> Path:
 
 def add_parsers(sub) -> None:
     p = sub.add_parser("inspect", help="episodes, lengths, sync quality, and an action-vs-state plot")
-    p.add_argument("--repo-id", required=True)
+    p.add_argument("--repo-id", required=True, help="the dataset, USER/NAME")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--root", help="a recording folder (default datasets/recordings/USER/NAME)")
     where.add_argument("--hub", help="a local hub folder: the dataset is HUB/USER/NAME")
     p.add_argument("--episode", type=int, default=0, help="episode to plot (default 0)")
-    p.add_argument("--plot", help="PNG file for the plot (default: <root>/../<NAME>_episode<K>.png)")
-    p.add_argument("--no-plot", action="store_true")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--plot", metavar="FILE.png", help="write the plot of --episode's actions and states there")
+    p.add_argument("--no-plot", action="store_true", help="no plot (the default without --plot; kept for old scripts)")
+    p.add_argument("--json", action="store_true", help="print one JSON object: the episodes and the plot's path")
     p.set_defaults(func=run)
 
     c = sub.add_parser(
@@ -243,8 +243,8 @@ def run(args) -> int:
     meta = load_meta(args.repo_id, root)
     rows = episodes_table(meta)
     plot = None
-    if not args.no_plot and rows:
-        plot = Path(args.plot) if args.plot else root.parent / f"{root.name}_episode{args.episode}.png"
+    if args.plot and not args.no_plot and rows:  # only where asked: nothing is written beside the dataset unasked
+        plot = Path(args.plot)
         plot_episode(meta, args.episode, plot)
     if args.json:
         print(json.dumps({"root": str(root), "episodes": rows, "plot": str(plot) if plot else None}))

@@ -304,6 +304,8 @@ def env_options(agent: PolicyAgent, video: bool, task: str, robot: str) -> dict:
             )
         shape = agent.inputs[f"observation.images.{cams[0]}"].shape
         opts.update(cameras=tuple(cams), image_size=(int(shape[1]), int(shape[2])))
+        if video:
+            opts["video_size"] = VIDEO_SIZE  # the videos at a size people can see, the policy's input as trained
     elif video:
         opts["image_size"] = VIDEO_SIZE
     return opts
@@ -366,12 +368,15 @@ def load_for_recording(path: str | Path, env, task: str, robot: str, fps: float)
 # ---------------------------------------------------------------- the harness
 
 
-def make_env(task: str, robot: str, **options):
-
+def make_env(task: str, robot: str, video_size=None, **options):
+    """The task's environment on the robot; ``video_size`` (H, W): the size of its render()'s frames (videos),
+    when not its cameras' (a camera policy's 84 px input)."""
     try:
-        return envs.make(task, robot, **options)
+        env = envs.make(task, robot, **options)
     except ValueError as exc:
         raise GloverecError(str(exc)) from None
+    env.unwrapped.video_size = video_size
+    return env
 
 
 @dataclass(frozen=True)

@@ -577,6 +577,9 @@ def test_a_camera_dataset_trains_an_image_policy_that_eval_gives_its_camera(tmp_
     assert r.returncode == 0 and f"{n - 2} of the task's {n} instructions never came up in the policy's" in r.stderr
     result = json.loads(r.stdout)
     assert result["episodes"] == 1 and Path(result["videos"][0]).stat().st_size > 1000
+    import imageio.v3 as iio  # the video at a size people watch, not the policy's 64 px input
+
+    assert iio.improps(result["videos"][0], plugin="pyav").shape[1:3] == (384, 512)
     config_file = out / "checkpoints" / "last" / "pretrained_model" / "config.json"
     unknown = next(t for t in drawn if t not in config["trained_instructions"])
     config["instructions"] = [f"{t}, slowly" if t == unknown else t for t in config["instructions"]]

@@ -175,6 +175,8 @@ class HandEnv(gym.Env):
             spaces[f"observation.images.{cam}"] = gym.spaces.Box(0, 255, (h, w, 3), np.uint8)
         self.observation_space = gym.spaces.Dict(spaces)
         self._renderer = None
+        self.video_size = None  # (H, W) of render()'s frames when not the cameras' image_size (an eval's videos)
+        self._video_renderer = None
         self._nu = nu
         self._ctrl = np.zeros(nu)
         self._base_rot = quat.IDENTITY.copy()
@@ -358,14 +360,21 @@ class HandEnv(gym.Env):
         return self._renderer.render()
 
     def render(self):
-        if self.render_mode == "rgb_array":
-            return self._render(self.config.cameras[0] if self.config.cameras else "front")
-        return None
+        if self.render_mode != "rgb_array":
+            return None
+        camera = self.config.cameras[0] if self.config.cameras else "front"
+        if self.video_size is None or tuple(self.video_size) == tuple(self.config.image_size):
+            return self._render(camera)
+        if self._video_renderer is None:  # people watch at another size than a policy's 84 px input
+            self._video_renderer = mujoco.Renderer(self.model, *self.video_size)
+        self._video_renderer.update_scene(self.data, camera=camera)
+        return self._video_renderer.render()
 
     def close(self):
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        for renderer in (self._renderer, self._video_renderer):
+            if renderer is not None:
+                renderer.close()
+        self._renderer = self._video_renderer = None
 
     # ------------------------------------------------------------ helpers for tasks
     def actuated_positions(self) -> np.ndarray:

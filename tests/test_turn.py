@@ -85,3 +85,24 @@ def test_the_palm_s_rotation_turns_the_gripped_knob():
         turned[-3:] = [0.0, 0.0, np.radians(40) * (k + 1) / 30]
         env.step(turned)
     assert np.degrees(env.knob_angle() - start) > 25
+
+
+def test_the_inspect_plot_shows_the_palm_s_turn_and_the_knob_against_its_target():
+    from recorder import quat
+    from recorder.record.inspect import _extra_panels
+
+    a_names = ["thumb_cmc_flex", "base.rx", "base.ry", "base.rz"]
+    s_names = ["thumb_cmc_flex.pos", "palm.qw", "palm.qx", "palm.qy", "palm.qz"]
+    turns = np.radians([[0, 0, 10], [0, 0, 40]])
+    action = np.hstack([np.zeros((2, 1)), turns])
+    state = np.hstack([np.zeros((2, 1)), [quat.from_rotvec(r) for r in turns]])
+    env = np.array([[0.1, 0.0, 0.5], [0.1, 0.6, 0.5]])
+    features = {"observation.environment_state": {"names": ["turn.knob.x", "turn.knob.angle", "turn.target.angle"]}}
+    panels = _extra_panels(a_names, s_names, action, state, {"observation.environment_state": env}, features)
+    titles = [t for t, _ in panels]
+    assert titles == ["palm rotation about x", "palm rotation about y", "palm rotation about z", "the task's angles"]
+    (_, target), (_, held) = panels[2][1]
+    np.testing.assert_allclose(target, [10, 40])
+    np.testing.assert_allclose(held, [10, 40], atol=1e-9)
+    assert [label for label, _ in panels[3][1]] == ["turn.knob.angle", "turn.target.angle"]
+    np.testing.assert_allclose(panels[3][1][0][1], np.degrees([0.0, 0.6]))

@@ -80,6 +80,27 @@ def action_state_pairs(action_names, state_names, robot: str | None) -> list[tup
     return pairs
 
 
+def _extra_panels(a_names, s_names, action, state, data, features) -> list:
+    """Beyond the joints: the palm's rotation (the action's rotation vector against the palm's orientation, as one),
+    and the task's angles (HandTurn's knob against its target), in degrees."""
+    from recorder import quat  # numpy only
+
+    panels = []
+    rot = [f"base.r{a}" for a in "xyz"]
+    palm = [f"palm.q{c}" for c in "wxyz"]
+    if all(n in a_names for n in rot) and all(n in s_names for n in palm):
+        turned = np.degrees(action[:, [a_names.index(n) for n in rot]])
+        held = np.degrees([quat.to_rotvec(q) for q in state[:, [s_names.index(n) for n in palm]]])
+        for i, axis in enumerate("xyz"):
+            panels.append((f"palm rotation about {axis}", [("action (target)", turned[:, i]), ("state", held[:, i])]))
+    names = (features.get("observation.environment_state") or {}).get("names") or []
+    angles = [i for i, n in enumerate(names) if n.endswith(".angle")]
+    if angles:
+        env = np.stack(data["observation.environment_state"])
+        panels.append(("the task's angles", [(names[i], np.degrees(env[:, i])) for i in angles]))
+    return panels
+
+
 def plot_episode(meta, episode: int, out: Path) -> Path:
     """A PNG grid: per actuated joint, the action (target) and the joint position it produced (``meta``: the
     dataset's LeRobotDatasetMetadata, read once by the caller)."""
@@ -100,15 +121,20 @@ def plot_episode(meta, episode: int, out: Path) -> Path:
     pairs = action_state_pairs(a_names, s_names, meta.robot_type)
     if not pairs:
         raise GloverecError("cannot pair actions with joint states in this dataset")
+    panels = [(a_names[a], [("action (target)", np.degrees(action[:, a])), ("state", np.degrees(state[:, s]))])
+              for a, s in pairs]  # fmt: skip
+    panels += _extra_panels(a_names, s_names, action, state, data, meta.features)
     cols = 5
-    rows = -(-len(pairs) // cols)
+    rows = -(-len(panels) // cols)
     fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 2.2 * rows), sharex=True, squeeze=False)
-    for ax, (a, s) in zip(axes.flat, pairs):
-        ax.plot(t, np.degrees(action[:, a]), label="action (target)", lw=1.2)
-        ax.plot(t, np.degrees(state[:, s]), label="state", lw=1.2)
-        ax.set_title(a_names[a], fontsize=8)
+    for ax, (title, lines) in zip(axes.flat, panels):
+        for label, series in lines:
+            ax.plot(t, series, label=label, lw=1.2)
+        ax.set_title(title, fontsize=8)
         ax.tick_params(labelsize=7)
-    for ax in list(axes.flat)[len(pairs) :]:
+        if len(lines) > 2 or lines[0][0] != "action (target)":
+            ax.legend(fontsize=6)
+    for ax in list(axes.flat)[len(panels) :]:
         ax.axis("off")
     axes.flat[0].legend(fontsize=7)
     fig.supxlabel("time (s)")

@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 import threading
+import time
 from functools import lru_cache
 from pathlib import Path
 
@@ -196,6 +197,7 @@ class Session:
     def publish(self) -> dict:
         """The pending edits published (the hub's next version, or the folder ``out``); the summary. Refused in one
         line, changing nothing, when there is nothing to publish or nothing would be left."""
+        t0 = time.perf_counter()  # the whole of it, as the person waited: checks, writing, the hub's copy, reopening
         edits = self.edits()
         if not edits:
             raise GloverecError("nothing to publish: no episode is discarded, trimmed or relabelled")
@@ -208,6 +210,7 @@ class Session:
         if self.hub is not None:  # go on reviewing what was published: the new newest version
             self.version = None
             self._open()
+        result["wall_s"] = round(time.perf_counter() - t0, 2)
         self.result = result
         return result
 

@@ -14,7 +14,8 @@ split by episode and a loss curve.
 differ, so plain demonstrations and takeover recordings train together): each split by episode the same way, their
 frames drawn together, a takeover recording's by who drove them (policies/data.py FrameCache.weights).
 Normalisation statistics come from the training episodes only. ``learn_from`` intended: the action chunks learnt
-are a DART recording's intended actions (recorder/record/dart.py), the noise the recorder injected left out.
+are the wearer's (``expert.action``: a DART recording's before its noise, a takeover recording's where the policy
+drove; recorder/record/dart.py), a plain demonstration's its executed ones.
 ``resume`` continues from checkpoints/last with the same split, weights, optimiser, scheduler and RNG state: N steps
 then N more equal 2N in one go.
 """
@@ -55,9 +56,9 @@ from policies import inputs as named_inputs
 from policies.bc import POLICY_TYPE  # importing policies.bc registers gloverec_bc
 from policies.config import TrainConfig
 from policies.data import DatasetRef, FrameCache, load_meta, recorded_with, resolve, split_episodes
-from recorder import GloverecError
+from recorder import GloverecError, one_line
 from recorder.plugins import load_plugins
-from recorder.record.dart import INTENDED_ACTION
+from recorder.record.dart import EXPERT_ACTION
 from recorder.video_backend import video_backend
 
 SHORT_NAMES = {"bc": POLICY_TYPE}  # `--policy bc`, the default
@@ -76,7 +77,7 @@ def policy_type(name: str) -> str:
     return kind
 
 
-ACTION_FROM = {"executed": "action", "intended": INTENDED_ACTION}  # TrainConfig.learn_from: the feature learnt
+ACTION_FROM = {"executed": "action", "intended": EXPERT_ACTION}  # TrainConfig.learn_from: the feature learnt
 
 
 def _say(text: str) -> None:
@@ -107,12 +108,7 @@ def _policy_config(policy: str, cfg: TrainConfig, features: dict):
         return config_cls(device="cpu", push_to_hub=False, **extra)
     except (TypeError, ValueError) as exc:
         what = f"bad {policy} policy setting" if extra else f"the {policy} policy's config does not build"
-        raise GloverecError(f"{what}: {_first_line(exc)}") from None
-
-
-def _first_line(exc: Exception) -> str:
-    text = str(exc).strip()
-    return text.splitlines()[0] if text else type(exc).__name__
+        raise GloverecError(f"{what}: {one_line(exc)}") from None
 
 
 def train(
@@ -175,7 +171,7 @@ def train(
         with contextlib.redirect_stdout(io.StringIO()):  # lerobot prints "Loading weights from local directory"
             policy_obj = make_policy(policy_cfg, ds_meta=meta)
     except (ValueError, TypeError, ImportError, NotImplementedError) as exc:
-        raise GloverecError(f"cannot make a {policy_cfg.type} policy: {_first_line(exc)}") from None
+        raise GloverecError(f"cannot make a {policy_cfg.type} policy: {one_line(exc)}") from None
     keys = [*policy_obj.config.input_features, "action"]
     if getattr(policy_obj.config, "reads_task", False):
         keys.append("task")
@@ -199,7 +195,7 @@ def train(
         try:
             pre, post = make_pre_post_processors(policy_obj.config, dataset_stats=stats)
         except (ValueError, ImportError) as exc:  # "Processor for policy type 'x' is not implemented."
-            raise GloverecError(f"cannot train a {policy_obj.config.type} policy: {_first_line(exc)}") from None
+            raise GloverecError(f"cannot train a {policy_obj.config.type} policy: {one_line(exc)}") from None
         if hasattr(policy_obj, "adopt_stats"):
             policy_obj.adopt_stats(stats)
         _check_forward(policy_obj, pre, train_cache)
@@ -394,7 +390,7 @@ def _check_forward(policy, pre, cache: FrameCache) -> None:
     except Exception as exc:  # noqa: BLE001  (whatever the type raises: where, and one line)
         where = traceback.extract_tb(exc.__traceback__)[-1]
         raise GloverecError(f"cannot train a {kind} policy: its forward on a batch of "
-                            f"{', '.join(cache.data)} raised {type(exc).__name__}: {_first_line(exc)} "
+                            f"{', '.join(cache.data)} raised {type(exc).__name__}: {one_line(exc)} "
                             f"({Path(where.filename).name}:{where.lineno})") from None  # fmt: skip
     finally:
         policy.train()

@@ -12,3 +12,9 @@ __version__ = "0.1.0"
 
 class GloverecError(Exception):
     """An error the CLI reports as one line and a non-zero exit (bad input, missing port, ...)."""
+
+
+def one_line(exc: BaseException) -> str:
+    """An exception's message as one short line (its first), or its type's name when it has none."""
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__

@@ -12,7 +12,7 @@ from pathlib import Path
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from recorder import GloverecError
+from recorder import GloverecError, one_line
 
 CODEBASE_VERSION = "v3.0"
 INFO = "meta/info.json"
@@ -96,7 +96,7 @@ def _read_info(root: Path) -> dict:
     try:
         info = json.loads((root / INFO).read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise _Damaged(f"cannot read {INFO} ({_why(exc)})") from None
+        raise _Damaged(f"cannot read {INFO} ({one_line(exc)})") from None
     if not isinstance(info, dict):
         raise _Damaged(f"{INFO} is not a JSON object")
     if info.get("codebase_version") != CODEBASE_VERSION:
@@ -114,7 +114,7 @@ def _num_rows(path: Path, root: Path) -> int:
     try:
         return pq.ParquetFile(path).metadata.num_rows
     except (OSError, pa.ArrowException) as exc:
-        raise _Damaged(f"{path.relative_to(root)} is not a readable parquet file ({_why(exc)})") from None
+        raise _Damaged(f"{path.relative_to(root)} is not a readable parquet file ({one_line(exc)})") from None
 
 
 def _read_episodes(root: Path, files: list[str]) -> dict[str, list]:
@@ -131,7 +131,7 @@ def _read_episodes(root: Path, files: list[str]) -> dict[str, list]:
             videos = sorted(n for n in names if n.startswith("videos/") and n.endswith("_index"))
             table = pq.read_table(root / rel, columns=_EPISODE_COLUMNS + videos)
         except (OSError, pa.ArrowException) as exc:
-            raise _Damaged(f"cannot read {rel} ({_why(exc)})") from None
+            raise _Damaged(f"cannot read {rel} ({one_line(exc)})") from None
         for name in table.column_names:
             columns.setdefault(name, []).extend(table.column(name).to_pylist())
     for name, values in columns.items():
@@ -168,9 +168,3 @@ def _referenced_files(info: dict, episodes: dict[str, list]) -> set[str]:
                 for c, f in zip(chunks, files, strict=True)
             }
     return needed
-
-
-def _why(exc: Exception) -> str:
-    """An exception as one short line."""
-    text = str(exc).strip()
-    return text.splitlines()[0] if text else type(exc).__name__

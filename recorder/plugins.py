@@ -19,7 +19,7 @@ import importlib
 import os
 from importlib.metadata import entry_points
 
-from recorder import GloverecError
+from recorder import GloverecError, one_line
 
 PLUGINS_ENV = "GLOVEREC_PLUGINS"
 ENTRY_POINTS = "gloverec.plugins"
@@ -47,5 +47,6 @@ def _import(module: str, where: str) -> None:
     except GloverecError:
         raise
     except Exception as exc:  # noqa: BLE001  (whatever a plugin raises: the user needs its name and one line)
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise GloverecError(f"cannot load the plugin {module} ({where}): {type(exc).__name__}: {first}") from None
+        raise GloverecError(
+            f"cannot load the plugin {module} ({where}): {type(exc).__name__}: {one_line(exc)}"
+        ) from None

@@ -12,7 +12,7 @@ import pytest
 from docs_runner import ROOT, run_blocks_of
 
 from conftest import cli, gloverec
-from recorder.record.dart import INTENDED_ACTION, NOISE, Dart
+from recorder.record.dart import EXPERT_ACTION, EXPERT_OFFSET, Dart
 
 REPO = "me/pose_dart"
 
@@ -30,7 +30,9 @@ def _columns(root, repo_id: str = REPO) -> dict[str, np.ndarray]:
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
     data = LeRobotDataset(repo_id, root=root).hf_dataset.with_format("numpy")
-    return {k: np.stack(data[k]) for k in ("episode_index", "observation.state", "action", INTENDED_ACTION, NOISE)}
+    return {
+        k: np.stack(data[k]) for k in ("episode_index", "observation.state", "action", EXPERT_ACTION, EXPERT_OFFSET)
+    }
 
 
 def test_the_noise_holds_over_frames_scales_with_each_range_and_follows_the_episode_seed():
@@ -62,9 +64,9 @@ def test_a_dart_recording_replays_exactly_and_its_noise_is_the_executed_less_the
 
     root = _recording(docs_run) / "pose_dart"
     c = _columns(root)
-    assert c[NOISE].dtype == c["action"].dtype == c[INTENDED_ACTION].dtype == np.float32
-    assert np.array_equal(c["action"] - c[INTENDED_ACTION], c[NOISE])
-    assert (c[NOISE] != 0).mean() > 0.9 and np.abs(c[NOISE]).max() > 0.01
+    assert c[EXPERT_OFFSET].dtype == c["action"].dtype == c[EXPERT_ACTION].dtype == np.float32
+    assert np.array_equal(c["action"] - c[EXPERT_ACTION], c[EXPERT_OFFSET])
+    assert (c[EXPERT_OFFSET] != 0).mean() > 0.9 and np.abs(c[EXPERT_OFFSET]).max() > 0.01
     records = read_sidecar(root)
     assert [r["dart"] for r in records] == [{"scale": 0.02, "time_s": 0.2}] * len(records) and len(records) == 2
     ref = resolve(REPO, root=root)
@@ -77,7 +79,7 @@ def test_a_dart_recording_replays_exactly_and_its_noise_is_the_executed_less_the
     apart = 0.0
     for i in rows:
         apart = max(apart, float(np.abs(obs["observation.state"] - c["observation.state"][i]).max()))
-        obs, *_ = env.step(c[INTENDED_ACTION][i])
+        obs, *_ = env.step(c[EXPERT_ACTION][i])
     assert apart > 0.01, apart
     features = dataset_to_policy_features(LeRobotDatasetMetadata(REPO, root=root).features)
     assert not [k for k in features if k.startswith("dart.")] and "action" in features
@@ -97,7 +99,7 @@ def test_training_on_the_intended_action_learns_its_chunks_and_statistics(docs_r
     root = work / "pose_dart"
     c = _columns(root)
     delta = {"action": [k / 30 for k in range(3)]}
-    cache = FrameCache(resolve(REPO, root=root), [0, 1], ["observation.state", "action"], delta, False, INTENDED_ACTION)
+    cache = FrameCache(resolve(REPO, root=root), [0, 1], ["observation.state", "action"], delta, False, EXPERT_ACTION)
     assert set(cache.data) == {"observation.state", "action", "action_is_pad"}
     chunks, pad = cache.data["action"].numpy(), cache.data["action_is_pad"].numpy()
     for i in range(len(chunks)):
@@ -106,9 +108,9 @@ def test_training_on_the_intended_action_learns_its_chunks_and_statistics(docs_r
             inside = j < len(chunks) and c["episode_index"][j] == c["episode_index"][i]
             assert pad[i, k] == (not inside)
             if inside:
-                assert np.array_equal(chunks[i, k], c[INTENDED_ACTION][j])
+                assert np.array_equal(chunks[i, k], c[EXPERT_ACTION][j])
     stats = cache.stats(["action"], {})["action"]
-    assert np.allclose(stats["mean"], c[INTENDED_ACTION].astype(np.float64).mean(axis=0))
+    assert np.allclose(stats["mean"], c[EXPERT_ACTION].astype(np.float64).mean(axis=0))
     assert not torch.equal(cache.data["action"][:, 0], torch.from_numpy(c["action"]))
 
 
@@ -122,7 +124,7 @@ def test_rerecording_a_dart_session_draws_the_same_noise(docs_run, tmp_path):
     assert r.returncode == 0, r.stderr
     a, b = _columns(root), _columns(tmp_path / "again", "me/again")
     assert len(a["action"]) == len(b["action"])
-    for key in ("action", NOISE, INTENDED_ACTION):
+    for key in ("action", EXPERT_OFFSET, EXPERT_ACTION):
         assert np.allclose(a[key], b[key], atol=1e-6), key
 
 

@@ -19,10 +19,11 @@ import math
 
 import numpy as np
 
-# The features a DART recording adds (recorder/record/features.py): named outside "observation." and "action", which
-# LeRobot's dataset_to_policy_features (lerobot/utils/feature_utils.py) takes for policy inputs and for the action.
-INTENDED_ACTION = "expert.action"
-NOISE = "expert.offset"
+# The features a DART recording adds, and a takeover recording too (recorder/record/features.py): the wearer's action
+# and the executed one less it. Named outside "observation." and "action", which LeRobot's dataset_to_policy_features
+# (lerobot/utils/feature_utils.py) takes for policy inputs and for the action.
+EXPERT_ACTION = "expert.action"
+EXPERT_OFFSET = "expert.offset"
 STREAM = 0xDA27  # the noise's stream of an episode seed (numpy SeedSequence entropy [STREAM, seed])
 
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from recorder.hand.kinematics import JOINTS
 from recorder.hand.pose import HandPose
-from recorder.record.dart import INTENDED_ACTION, NOISE
+from recorder.record.dart import EXPERT_ACTION, EXPERT_OFFSET
 
 GLOVE_NAMES = (*(f"{j}.rad" for j in JOINTS), "palm.qw", "palm.qx", "palm.qy", "palm.qz")
 
@@ -34,7 +34,7 @@ class Row:
     task: str
     wrist: object = None  # a free wrist's FusedWrist (recorder/wrist/fusion.py); None: the task scripts the base
     takeover: object = None  # a takeover recording's Decision (recorder/record/takeover.py)
-    intended: np.ndarray | None = None  # a DART recording's: the wearer's action before the noise (float32, clipped)
+    intended: np.ndarray | None = None  # DART's or a takeover's: the wearer's action (float32, as the env applies it)
 
 
 @dataclass(frozen=True)
@@ -169,14 +169,14 @@ class DatasetSchema:
         if expert:  # DART's noise, or a policy driving: the wearer's action kept (recorder/record/dart.py: the names)
             self.features += [
                 Feature(
-                    INTENDED_ACTION,
+                    EXPERT_ACTION,
                     tuple(env.action_names),
                     lambda r: r.intended,
                     "the wearer's action (before DART's noise; a takeover recording's wearer where the policy drove), "
                     "as the environment would apply it (`action` is the executed one)",
                 ),
                 Feature(
-                    NOISE,
+                    EXPERT_OFFSET,
                     tuple(env.action_names),
                     lambda r: np.float32(r.action) - r.intended,  # float32: exactly action - expert.action
                     "the executed action less the wearer's (DART's noise, or the policy's departure where it drove), "

@@ -12,7 +12,7 @@ import numpy as np
 from recorder import GloverecError
 from recorder.dataset_check import check_dataset
 from recorder.record.config import REPO_ID
-from recorder.record.sidecar import SIDECAR, carry_sidecar, read_sidecar
+from recorder.record.sidecar import SIDECAR, carry_sidecar, episode_notes, read_sidecar
 from recorder.video_backend import video_backend
 
 COLUMNS = (
@@ -55,7 +55,7 @@ def episodes_table(meta) -> list[dict]:
                 **{k: s.get(k) for k in COLUMNS if k != "frames"},
                 "demonstration": s.get("demonstration"),  # the human-like demonstrator's intent, if it made the take
                 "physics_unstable_s": s.get("physics_unstable_s"),  # when MuJoCo reset a blown-up simulation
-                "frames_by_wearer": (s.get("takeover") or {}).get("frames_by_wearer"),  # a takeover recording's
+                "notes": episode_notes(s),  # a takeover's share, a blow-up
             }
         )
     return rows
@@ -286,20 +286,11 @@ def run(args) -> int:
             f"{r['episode']:>3} {r['frames']:>6} {r['seconds']:>5} {_yes_no(r['success']):>3} "
             f"{f(r['glove_late']):>5} {f(r['glove_dropped']):>5} {f(r['loop_overruns']):>7} "
             f"{f(r['jitter_ms_p99'], 2):>8} {f(r['latency_ms_p99']):>6} {f(r['retarget_error_mm_mean']):>8}  "
-            f"{r['task']}{_meant(r['demonstration'])}{_took_over(r['frames_by_wearer'])}"
-            f"{_blew_up(r['physics_unstable_s'])}"
+            f"{r['task']}{_meant(r['demonstration'])}{''.join(f'  [{n}]' for n in r['notes'])}"
         )
     if plot:
         print(f"plot of episode {args.episode}: {plot}")
     return 0
-
-
-def _took_over(frames) -> str:
-    return "" if frames is None else f"  [the wearer drove {frames} frames]"
-
-
-def _blew_up(at_s) -> str:
-    return "" if at_s is None else f"  [physics blew up at {at_s} s: MuJoCo reset the simulation]"
 
 
 def _yes_no(flag) -> str:

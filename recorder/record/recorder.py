@@ -29,6 +29,7 @@ from recorder.record.control import NEXT, RERECORD, STOP, TAKEOVER, Control
 from recorder.record.dart import Dart
 from recorder.record.features import DatasetSchema, Row
 from recorder.record.live import LiveView
+from recorder.record.sidecar import episode_notes
 from recorder.record.store import EpisodeStore
 from recorder.record.takeover import WEARER, Takeover, TakeoverConfig
 from recorder.record.writer import EpisodeWriter
@@ -260,12 +261,8 @@ class Recorder:
             self._say(
                 f"episode {index} saved: {result['frames']} frames, success={result['success']}, "
                 f"late {result['glove_late']}, dropped {result['glove_dropped']}, "
-                f"latency p99 {result['latency_ms_p99']} ms"
-                + (f"; the wearer drove {result['takeover']['frames_by_wearer']} frames"
-                   if result.get("takeover") else "")
-                + (f"; the physics blew up at {result['physics_unstable_s']} s (MuJoCo reset the simulation: review "
-                   "it before training)" if result.get("physics_unstable_s") is not None else "")
-            )  # fmt: skip
+                f"latency p99 {result['latency_ms_p99']} ms" + "".join(f"; {n}" for n in episode_notes(result))
+            )
 
     def close(self) -> None:
         self.glove.close()

@@ -20,6 +20,18 @@ SIDECAR = "meta/gloverec/episodes.jsonl"
 _START = "stats/time.device_s/min"  # lerobot's per-episode stats column of the first frame's device time
 
 
+def episode_notes(record: dict) -> list[str]:
+    """What a person should know of an episode beyond its success, from its record: how much a takeover's wearer
+    drove, and where MuJoCo reset a blown-up simulation (the saved line, inspect and review say the same)."""
+    notes = []
+    wearer = (record.get("takeover") or {}).get("frames_by_wearer")
+    if wearer is not None:
+        notes.append(f"the wearer drove {wearer} frames")
+    if record.get("physics_unstable_s") is not None:
+        notes.append(f"physics blew up at {record['physics_unstable_s']} s (MuJoCo reset the simulation)")
+    return notes
+
+
 def append_sidecar(root: str | Path, index: int, fields: dict) -> Path:
     """Append episode ``index``'s metadata (flushed, not fsynced: the store fsyncs what it publishes)."""
     path = Path(root) / SIDECAR

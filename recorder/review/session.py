@@ -20,7 +20,7 @@ from recorder.dataset_check import check_dataset
 from recorder.hub.store import Hub
 from recorder.record.edit import Edits, frame_ranges
 from recorder.record.inspect import action_state_pairs, dataset_root
-from recorder.record.sidecar import read_sidecar
+from recorder.record.sidecar import episode_notes, read_sidecar
 from recorder.review.publish import publish
 
 _START = "stats/time.device_s/min"  # the first frame's device time: how read_sidecar matches its records
@@ -85,8 +85,6 @@ class Session:
     def _row(self, e: int) -> dict:
         meta, rec = self.episodes[e], self.records.get(e, {})
         intent = rec.get("demonstration") or {}
-        blew_up = rec.get("physics_unstable_s")  # MuJoCo reset a blown-up simulation then: the joint plots jump
-        wearer = (rec.get("takeover") or {}).get("frames_by_wearer")  # a takeover recording's corrections
         return {
             "episode": e,
             "frames": self.lengths[e],
@@ -98,8 +96,7 @@ class Session:
             "seed": rec.get("seed"),
             "intent": "; ".join(filter(None, (
                 ", ".join(f"{k} {v}" for k, v in intent.items() if k in ("strategy", "failure") and v),
-                f"the wearer drove {wearer} frames" if wearer is not None else "",
-                f"physics blew up at {blew_up} s" if blew_up is not None else "",
+                *episode_notes(rec),  # a takeover's share, a blow-up (the joint plots jump there)
             ))) or None,
         }  # fmt: skip
 

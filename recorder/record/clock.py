@@ -4,8 +4,10 @@ itself never asks which.
 - ``RealTimeClock`` (`--realtime`, serial and UDP gloves): frame k of an episode is taken at host time
   host0 + k / fps; the loop sleeps until then, counts its jitter and overruns, and reads the glove ``delay_s`` behind
   the tick (1.5 measured sample intervals) so that the sample after the frame time has nearly always arrived.
-  Latency is measured (glove sample -> applied action), the device clock is mapped onto the host's, and no cyclic
-  garbage collection runs during an episode (a full collection of this heap stalls the loop for tens of ms).
+  Latency is measured (glove sample -> applied action), the device clock is mapped onto the host's, no cyclic
+  garbage collection runs during an episode (a full collection of this heap stalls the loop for tens of ms), and
+  the episode's latency path runs in the real-time scheduling class where the system allows
+  (recorder/record/precedence.py), so that other programs, a browser showing the view among them, do not delay it.
 - ``GloveClock`` (`--fast`, the emulator and logs): the loop ticks on the glove's own device clock and advances as
   fast as frames arrive; nothing is measured against a wall clock.
 """
@@ -14,9 +16,11 @@ from __future__ import annotations
 
 import gc
 import time
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 
 import numpy as np
+
+from recorder.record import precedence
 
 LOST, ENDED = "lost", "ended"  # what a tick may find instead of a frame time
 
@@ -57,16 +61,24 @@ class RealTimeClock(LoopClock):
     def __init__(self, glove, fps: int, nominal_rate_hz: float):
         super().__init__(glove, fps, nominal_rate_hz)
         self.host0 = 0.0
+        self.precedence = False  # whether episodes run in the real-time scheduling class
 
-    def session(self) -> None:
+    def session(self) -> str | None:
         """Before the first episode: the heap of torch, lerobot and mujoco (~0.3 s to traverse) is never looked at
-        by the collector again."""
+        by the collector again, and whether the loop may take precedence is asked once. Returns the line to say
+        when it may not."""
         gc.collect()
         gc.freeze()
+        self.precedence, why_not = precedence.available()
+        return why_not
 
+    @contextmanager
     def episode(self):
-        """The context of an episode's frames: no cyclic collection."""
-        return _no_gc_pauses(True)
+        """The context of an episode's frames: no cyclic collection, and the loop's precedence."""
+        with ExitStack() as stack:
+            stack.enter_context(_no_gc_pauses(True))
+            stack.enter_context(precedence.precedence(self.precedence))
+            yield
 
     def first_frames(self, timeout_s: float) -> bool:
         return True  # the reset period polls the link itself
@@ -110,8 +122,8 @@ class GloveClock(LoopClock):
     realtime = False
     label = "faster than real time"
 
-    def session(self) -> None:
-        pass
+    def session(self) -> str | None:
+        return None
 
     def episode(self):
         return _no_gc_pauses(False)

@@ -14,6 +14,7 @@ from recorder import config as cfg
 from recorder.config import NonNegative, Positive, setting
 from recorder.glove.config import GloveConfig
 from recorder.paths import recordings_dir
+from recorder.record import precedence
 from recorder.rig.config import SessionConfig
 from recorder.view.config import View, view_setting
 from recorder.wrist.config import SCRIPTED
@@ -122,6 +123,8 @@ class RecordConfig(SessionConfig):
 
         check_names(self.robot, self.task)
         self.check_wrist_files()
+        if not self.is_fast:
+            precedence.wanted()  # a bad $GLOVEREC_LOOP_PRIORITY: one line, now
         if self.demonstrator != "scripted":
             from recorder.demonstrator import make_demonstrator  # the demonstrators: not at start-up
 

@@ -205,7 +205,9 @@ class Recorder:
         cfg = self.cfg
         interrupted = False
         self.saved = []
-        self.clock.session()
+        note = self.clock.session()
+        if note:
+            self._say(note)
         try:
             self._episodes(cfg)
         except KeyboardInterrupt:  # Ctrl-C or `kill`: what the writer was handed is saved, the rest dropped
@@ -503,6 +505,7 @@ class Recorder:
             "fps": cfg.fps,
             "glove": self.glove.name,
             "realtime": self.clock.realtime,
+            **({"loop_priority": "realtime" if self.clock.precedence else "normal"} if self.clock.realtime else {}),
             "retarget": cfg.retarget,
             "wearer": self.profile.wearer,
             "hand_length_mm": self.profile.hand_length_mm,

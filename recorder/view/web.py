@@ -4,8 +4,10 @@ page shows it, the status text (``/status``, with the frames drawn so far), and 
 zero, stop and take over, each also on a key (the terminal's: → n Enter, ← r, z, Esc q, t: control between the
 policy and the wearer in a takeover recording; h shows or hides the human hand). Each browser is served by its own
 thread that sends the newest frame when it can, so a slow or closed page never holds up the rendering, let alone
-the recording (which runs in another process). The standard library's HTTP server is enough for one page, a stream
-and five buttons on a local network.
+the recording (which runs in another process, its episodes in the real-time scheduling class where allowed:
+recorder/record/precedence.py). The page loses frames instead: the view draws with the CPU nothing else wants,
+backs off while the recording reports late ticks, and says so in a "view" row. The standard library's HTTP
+server is enough for one page, a stream and five buttons on a local network.
 """
 
 from __future__ import annotations
@@ -55,8 +57,8 @@ async function status() {
     const takeover = rows.some(([k]) => k === "control");
     for (const id of TAKEOVER_ONLY) document.getElementById(id).hidden = !takeover;
     document.getElementById("status").innerHTML = rows.map(
-      ([k, v]) => `<tr class="${v.includes("LOST") ? "warn" : k === "workspace" || v.startsWith("WEARER") ?
-        "edge" : ""}">` +
+      ([k, v]) => `<tr class="${v.includes("LOST") ? "warn" : k === "workspace" || k === "view" ||
+        v.startsWith("WEARER") ? "edge" : ""}">` +
         `<td class="k">${k}</td><td>${v.replace(/&/g, "&amp;").replace(/</g, "&lt;")}</td></tr>`
     ).join("");
   } catch (e) {}
@@ -153,8 +155,10 @@ def serve(
                 stage.decorate(renderer.scene, opt)
                 buf = io.BytesIO()
                 Image.fromarray(renderer.render()).save(buf, "JPEG", quality=80)
-                frames.put(buf.getvalue(), overlay.lines(last.status, overlay.WEB_KEY_NAMES))
                 period = pace.period(last.status)
+                note = pace.note()  # the page says when it shows fewer frames, and why
+                rows = overlay.lines(last.status, overlay.WEB_KEY_NAMES) + ([("view", note)] if note else [])
+                frames.put(buf.getvalue(), rows)
                 if meter is not None:
                     meter.tick()
             time.sleep(max(0.0, period - (time.monotonic() - t)))

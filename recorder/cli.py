@@ -97,6 +97,7 @@ def build_parser() -> argparse.ArgumentParser:
     record_cli.add_rerecord_parser(sub)
     inspect_cli.add_parsers(sub)
     review_cli.add_edit_parser(sub)
+    review_cli.add_repair_parser(sub)
     review_cli.add_parser(sub)
     hub_cli.add_parsers(sub)
     policies_cli.add_parsers(sub)

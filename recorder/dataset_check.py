@@ -18,6 +18,7 @@ CODEBASE_VERSION = "v3.0"
 INFO = "meta/info.json"
 TASKS = "meta/tasks.parquet"
 EPISODES_DIR = "meta/episodes"
+REPAIR = "`gloverec repair` rescues its intact episodes"
 _INFO_KEYS = {
     "fps": int,
     "total_episodes": int,
@@ -55,17 +56,26 @@ def looks_like_dataset(root: Path) -> None:
 def check_dataset(root: Path, shown_as: str | Path | None = None) -> dict:
     """Raise GloverecError unless ``root`` holds a complete, consistent dataset; return its ``meta/info.json``.
     Messages name the folder ``shown_as`` (e.g. the folder a staging copy was made from), else ``root``."""
+    info = read_info(root, shown_as)
+    try:
+        _check(root, info)
+    except _Damaged as exc:  # past a sound info.json: what `gloverec repair` reads around
+        raise GloverecError(f"{shown_as or root} is a damaged LeRobot dataset: {exc}; {REPAIR}") from None
+    return info
+
+
+def read_info(root: Path, shown_as: str | Path | None = None) -> dict:
+    """``meta/info.json`` of the dataset at ``root``, its keys checked; one-line GloverecErrors as above."""
     looks_like_dataset(root)
     try:
-        return _check(root)
+        return _read_info(root)
     except _Unsupported as exc:
         raise GloverecError(f"{shown_as or root} {exc}") from None
     except _Damaged as exc:
         raise GloverecError(f"{shown_as or root} is a damaged LeRobot dataset: {exc}") from None
 
 
-def _check(root: Path) -> dict:
-    info = _read_info(root)
+def _check(root: Path, info: dict) -> None:
     rows = {p.relative_to(root).as_posix(): _num_rows(p, root) for p in sorted(root.rglob("*.parquet"))}
     if TASKS not in rows:
         raise _Damaged(f"no {TASKS}")
@@ -89,7 +99,6 @@ def _check(root: Path) -> dict:
     for needed in sorted(_referenced_files(info, episodes)):
         if not (root / needed).is_file():
             raise _Damaged(f"{needed} is missing (an episode points to it)")
-    return info
 
 
 def _read_info(root: Path) -> dict:

@@ -1,10 +1,11 @@
 """`gloverec edit` (issue 26's curation without a browser): delete, trim and relabel episodes into a new dataset or
 the hub's next version, with gloverec's episode records following their episodes; bad edits are one line and
-change nothing."""
+change nothing. `gloverec repair` (issue 42): the intact episodes of a damaged dataset, written the same way."""
 
 from __future__ import annotations
 
 import json
+import os
 import shutil
 
 import numpy as np
@@ -123,3 +124,79 @@ def test_edit_then_merge_appends_other_datasets_with_their_records(pose_recordin
     np.testing.assert_array_equal(
         _frames(merged, 3)["action"], _frames(LeRobotDataset(POSE_REPO, root=src), 0)["action"]
     )
+
+
+def _flip_a_byte(path, at: int = 8) -> None:
+    """One byte of a parquet file's first page changed: its footer, and so its row counts, still read."""
+    with path.open("r+b") as f:
+        f.seek(at)
+        byte = f.read(1)[0]
+        f.seek(at)
+        f.write(bytes([byte ^ 0xFF]))
+
+
+def test_repair_keeps_the_intact_episodes_of_a_dataset_with_truncated_files(pose_recording, tmp_path):
+    """Issue 42: with one episode's parquet cut short every command refused the dataset, `edit --delete` of that
+    episode included, so the intact episodes could not be saved. (A recording has a data file per episode; here
+    episode 1's is cut in half and a page of episode 3's is damaged, which only reading its frames finds.)"""
+    src, _ = pose_recording
+    copy = tmp_path / "damaged"
+    shutil.copytree(src, copy)
+    victim = copy / "data" / "chunk-000" / "file-001.parquet"
+    os.truncate(victim, victim.stat().st_size // 2)
+    _flip_a_byte(copy / "data" / "chunk-000" / "file-003.parquet")
+    before = sorted((p.relative_to(copy), p.stat().st_size) for p in copy.rglob("*") if p.is_file())
+    refused = cli("edit", "--repo-id", POSE_REPO, "--root", str(copy), "--out", str(tmp_path / "e"), "--delete", "1")
+    assert refused.returncode == 1 and len(refused.stderr.strip().splitlines()) == 1, refused.stderr
+    assert "`gloverec repair` rescues its intact episodes" in refused.stderr
+
+    out = tmp_path / "repaired"
+    r = cli("repair", "--repo-id", POSE_REPO, "--root", str(copy), "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    original, repaired = LeRobotDataset(POSE_REPO, root=src), LeRobotDataset(POSE_REPO, root=out)
+    frames = sum(len(_frames(original, e)["action"]) for e in (0, 2))
+    one, three, summary = r.stdout.strip().splitlines()
+    assert one.startswith("episode 1 dropped: data/chunk-000/file-001.parquet is not a readable parquet file (")
+    assert three.startswith("episode 3 dropped: data/chunk-000/file-003.parquet is not a readable parquet file (")
+    assert summary == f"{out}: kept 2 of 4 episodes, {frames} frames (dropped 2; from {copy})"
+    assert repaired.num_episodes == 2 and repaired.meta.total_frames == len(repaired)
+    for new, old in enumerate((0, 2)):
+        for key, values in _frames(original, old).items():
+            np.testing.assert_array_equal(_frames(repaired, new)[key], values)
+    records = read_sidecar(out)
+    assert [(rec["seed"], rec["repaired_from"]) for rec in records] == [(0, 0), (2, 2)]
+    assert (out / "meta" / "gloverec" / "hand_profile.json").is_file()
+    assert sorted((p.relative_to(copy), p.stat().st_size) for p in copy.rglob("*") if p.is_file()) == before
+
+
+def test_repair_on_the_hub_publishes_the_intact_episodes_as_the_next_version(pose_recording, tmp_path):
+    """A hub version with a file altered after publishing: its manifest says which before anything reads it; the
+    intact episodes are the next version and the damaged one stays as it was."""
+    src, _ = pose_recording
+    hub = tmp_path / "hub"
+    assert cli("push", "--repo-id", POSE_REPO, "--root", str(src), "--hub", str(hub)).returncode == 0
+    altered = hub / f"{POSE_REPO}@v1" / "data" / "chunk-000" / "file-002.parquet"
+    altered.chmod(0o644)
+    _flip_a_byte(altered)
+    r = cli("repair", "--repo-id", POSE_REPO, "--hub", str(hub), "--json")
+    assert r.returncode == 0, r.stderr
+    summary = json.loads(r.stdout)
+    assert summary["version"] == "v2" and summary["episode_map"] == {"0": 0, "1": 1, "3": 2}
+    assert summary["dropped"] == {"2": "data/chunk-000/file-002.parquet differs from the hub's manifest"}
+    assert LeRobotDataset(POSE_REPO, root=hub / POSE_REPO).num_episodes == 3  # the link: the newest
+    assert cli("hub", "verify", "--hub", str(hub), "--repo-id", POSE_REPO, "--version", "v2").returncode == 0
+
+
+def test_repair_with_nothing_intact_is_one_line_and_writes_nothing(pose_recording, tmp_path):
+    src, _ = pose_recording
+    copy = tmp_path / "copy"
+    shutil.copytree(src, copy)
+    for victim in (copy / "data").rglob("*.parquet"):
+        victim.unlink()
+    out = tmp_path / "repaired"
+    r = cli("repair", "--repo-id", POSE_REPO, "--root", str(copy), "--out", str(out))
+    assert r.returncode == 1 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "no episode of" in r.stderr and "data/chunk-000/file-000.parquet is missing" in r.stderr
+    assert not out.exists()
+    r = cli("repair", "--repo-id", POSE_REPO, "--root", str(copy))
+    assert r.returncode == 1 and "pass --out DIR: a recording is not repaired in place" in r.stderr

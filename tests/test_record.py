@@ -147,6 +147,7 @@ def test_a_missing_port_is_one_line(tmp_path):
     """The glove opens after the writer process is forked: as a user runs it, in a child process."""
     r = gloverec("record", "--episodes", "1", "--root", str(tmp_path / "ds"), "--glove", "/dev/does-not-exist")
     assert r.returncode == 1 and r.stderr.strip().count("\n") == 0 and "no such port" in r.stderr, r.stderr
+    assert list(tmp_path.iterdir()) == []  # no hidden .ds.gloverec/ left behind (issue 42)
 
 
 def test_bad_flag_values_are_usage_errors(tmp_path):
@@ -441,6 +442,7 @@ def test_a_glove_without_hand_frames_ends_the_session_saying_why(tmp_path):
     last = r.stderr.strip().splitlines()[-1]
     assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr
     assert last.startswith("gloverec: error: mcap:") and last.endswith("ended after 20 frames without a hand pose")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["status.mcap"]  # nothing saved: no .ds.gloverec/ left
 
 
 @pytest.mark.process

@@ -1,5 +1,6 @@
 """Crash safety of the episode store: SIGKILL at many moments never costs a saved episode."""
 
+import threading
 import time
 
 import numpy as np
@@ -110,3 +111,31 @@ def test_plain_directory_is_not_resumed(tmp_path):
     (tmp_path / "ds").mkdir()
     with pytest.raises(GloverecError, match="not a gloverec recording"):
         EpisodeStore(tmp_path / "ds", "test/crash", 30, FEATURES, "glovehand", resume=True)
+
+
+def test_a_session_that_saves_nothing_leaves_no_hidden_folder(tmp_path):
+    """Issue 42: a failed start (a glove that does not open, a stop before the first episode) left an empty
+    .ROOT.gloverec/ behind. A session waiting for the lock then makes its own; a recording with episodes keeps it."""
+    root = tmp_path / "ds"
+    frame = {"observation.state": np.zeros(3, np.float32), "action": np.zeros(3, np.float32), "task": "task 0"}
+    first = EpisodeStore(root, "test/crash", 30, FEATURES, "glovehand")
+    first.add_frame(dict(frame))  # an episode in progress, never saved (add_frame takes the task out)
+    waiting: dict = {}
+    thread = threading.Thread(target=lambda: waiting.update(store=EpisodeStore(root, "test/crash", 30, FEATURES,
+                                                                               "glovehand")))  # fmt: skip
+    thread.start()
+    time.sleep(0.3)  # the second session waits for the first one's lock
+    first.close()
+    thread.join(30)
+    second = waiting["store"]
+    for i in range(40):  # as _write_until_killed writes them, for check_dataset
+        second.add_frame({**frame, "observation.state": np.full(3, i, np.float32)})
+    second.save_episode({})
+    second.close()
+    assert check_dataset(root, 1) == 1
+    resumed = EpisodeStore(root, "test/crash", 30, FEATURES, "glovehand", resume=True)
+    resumed.close()  # nothing saved, but not its dataset to remove
+    assert check_dataset(root, 1) == 1
+
+    EpisodeStore(tmp_path / "empty", "test/crash", 30, FEATURES, "glovehand").close()
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".ds.gloverec", "ds"]

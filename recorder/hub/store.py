@@ -120,11 +120,12 @@ class Hub:
         """Version ``vN`` (the newest by default), every file checked against its manifest first: a damaged
         version is a one-line GloverecError, never a dataset that fails to load halfway through a command."""
         v = self.version(repo_id, version)
-        check = self._check(v)
+        check = self.check(v)
         if not check.ok:
             raise GloverecError(
                 f"{repo_id} {v.tag} in {self.root} is damaged ({check.describe()}): `gloverec hub verify` checks "
-                "every version; push the recording again to publish a sound one"
+                "every version; push the recording again to publish a sound one, or publish its intact episodes "
+                "with `gloverec repair --hub`"
             )
         return v
 
@@ -294,7 +295,7 @@ class Hub:
                 self.version(repo_id)  # raises: no such dataset
         else:
             targets = [v for r in self.repo_ids() for v in self.versions(r)]
-        report = Report([self._check(v) for v in targets])
+        report = Report([self.check(v) for v in targets])
         for user in self._users():
             report.cleaned += [f"{user.name}/{n}" for n in atomic.clean_stale(user)]
         for rid in sorted({v.repo_id for v in targets}):
@@ -308,7 +309,8 @@ class Hub:
                 report.relinked.append(f"{rid} -> {tag}")
         return report
 
-    def _check(self, v: Version) -> Check:
+    def check(self, v: Version) -> Check:
+        """Version ``v``'s files against its manifest."""
         try:
             m = v.manifest()
         except GloverecError as exc:

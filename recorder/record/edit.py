@@ -2,8 +2,9 @@
 episode's start or end, relabel an episode's success. The source is never changed: the result is a new dataset
 folder (the command publishes it as a hub's next version when the source is in a hub).
 
-The kept episodes are written again through LeRobot's own writer (``LeRobotDataset.create``, ``save_episode``; a
-vector-only episode handed over whole, camera frames one by one through ``add_frame`` and its video encoder):
+The kept episodes are written again through LeRobot's own writer (``write_episodes``, which `gloverec repair` writes
+with too: ``LeRobotDataset.create``, ``save_episode``; a vector-only episode handed over whole, camera frames one by
+one through ``add_frame`` and its video encoder):
 re-indexed from 0, timestamps from 0 in a trimmed episode, statistics recomputed; plain ``LeRobotDataset`` loads
 the result. (LeRobot's dataset_tools delete episodes but cannot trim inside one: one writer for both keeps them
 consistent.) gloverec's episode records (meta/gloverec/episodes.jsonl: seed, success, glove figures) follow their
@@ -15,10 +16,12 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
 import shutil
 import sys
 import time
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -111,8 +114,41 @@ def frame_ranges(lengths: dict[int, int], fps: float, edits: Edits) -> dict[int,
     return kept
 
 
-def edit_dataset(src: Path, out: Path, repo_id: str, edits: Edits, progress: bool = True) -> dict:
-    """Write the edited copy of the dataset at ``src`` into the new folder ``out``; a summary."""
+@dataclass(frozen=True)
+class DatasetSpec:
+    """What the rewritten dataset is: its id, rate, features (lerobot's own columns included), robot and tasks."""
+
+    repo_id: str
+    fps: int
+    features: dict
+    robot_type: str | None
+    tasks: dict[int, str]  # task_index -> the task's text
+
+    @property
+    def stored(self) -> dict:
+        """The features a writer is given (lerobot adds its own columns)."""
+        return {k: v for k, v in self.features.items() if k not in _LEROBOT_OWN}
+
+    @property
+    def cameras(self) -> list[str]:
+        return [k for k, v in self.stored.items() if v["dtype"] in ("video", "image")]
+
+
+@dataclass
+class Take:
+    """One episode to write: its stored columns (the parquet files' values, ``task_index`` included) and, with
+    cameras, ``frames(j)``: each camera's j-th frame, (H, W, C) uint8."""
+
+    rows: dict[str, list]
+    frames: Callable[[int], dict[str, np.ndarray]] | None = None
+
+    def __len__(self) -> int:
+        return len(self.rows["task_index"])
+
+
+def write_episodes(out: Path, spec: DatasetSpec, takes: Iterable[Take], total: int, progress: bool = True) -> int:
+    """Write ``takes`` in order as the episodes 0.. of a new dataset at ``out`` through LeRobot's own writer
+    (``LeRobotDataset.create``, ``save_episode``); the number written. ``total``: their frames, for the bar."""
     import datasets
     from lerobot.datasets.lerobot_dataset import LeRobotDataset  # lerobot: not at start-up
     from tqdm import tqdm
@@ -120,6 +156,40 @@ def edit_dataset(src: Path, out: Path, repo_id: str, edits: Edits, progress: boo
     from recorder.record.episode_stats import lerobot_save_speedups  # lerobot's writer, patched while saving
 
     datasets.disable_progress_bars()  # a "Map" bar per episode
+    os.environ.setdefault("SVT_LOG", "1")  # the AV1 encoder's banner on every episode: errors only
+    features, cameras = spec.stored, spec.cameras
+    videos = any(v["dtype"] == "video" for v in features.values())
+    target = LeRobotDataset.create(spec.repo_id, spec.fps, features, root=out, robot_type=spec.robot_type,
+                                   use_videos=videos, video_backend=video_backend())  # fmt: skip
+    bar = tqdm(total=total, desc="writing", unit="frame", disable=not progress, file=sys.stderr)
+    written = 0
+    try:
+        with lerobot_save_speedups(spec.features):  # exact episode stats, no embed_images where there are no images
+            for take in takes:
+                rows, n = take.rows, len(take)
+                tasks = [spec.tasks[int(t)] for t in rows["task_index"]]
+                if cameras:  # camera frames go through LeRobot's image writer and video encoder, frame by frame
+                    for j in range(n):
+                        frame = {key: _value(rows[key][j], features[key]) for key in features if key not in cameras}
+                        target.add_frame({**frame, **take.frames(j), "task": tasks[j]})
+                        bar.update()
+                    target.save_episode()
+                else:  # vectors only: the whole episode at once (LeRobot's save_episode takes a built episode)
+                    episode = {key: [_value(v, features[key]) for v in rows[key]] for key in features}
+                    episode.update(size=n, task=tasks, episode_index=written, index=[], task_index=[])
+                    episode.update(frame_index=np.arange(n), timestamp=np.arange(n) / spec.fps)
+                    target.save_episode(episode_data=episode)
+                    bar.update(n)
+                written += 1
+    finally:
+        bar.close()
+        target.finalize()
+    return written
+
+
+def edit_dataset(src: Path, out: Path, repo_id: str, edits: Edits, progress: bool = True) -> dict:
+    """Write the edited copy of the dataset at ``src`` into the new folder ``out``; a summary."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset  # lerobot: not at start-up
 
     t0 = time.perf_counter()
     source = LeRobotDataset(repo_id, root=src, video_backend=video_backend())
@@ -129,45 +199,25 @@ def edit_dataset(src: Path, out: Path, repo_id: str, edits: Edits, progress: boo
     starts = {int(e): int(i) for e, i in zip(episodes["episode_index"], episodes["dataset_from_index"])}
     kept = frame_ranges(lengths, meta.fps, edits)
     records = {int(r["episode_index"]): r for r in read_sidecar(src)}
-
-    features = {k: v for k, v in meta.features.items() if k not in _LEROBOT_OWN}
-    images = [k for k, v in features.items() if v["dtype"] in ("video", "image")]
-    data = source.hf_dataset.with_format(None)  # the stored columns, no video decoding
     tasks = {int(i): t for t, i in zip(meta.tasks.index, meta.tasks["task_index"])}
-    target = LeRobotDataset.create(
-        repo_id, meta.fps, features, root=out, robot_type=meta.robot_type, use_videos=bool(meta.video_keys),
-        video_backend=video_backend(),
-    )  # fmt: skip
+    spec = DatasetSpec(repo_id, meta.fps, meta.features, meta.robot_type, tasks)
+    data = source.hf_dataset.with_format(None)  # the stored columns, no video decoding
     new_records = []
-    bar = tqdm(total=sum(len(r) for r in kept.values()), desc="writing", unit="frame", disable=not progress,
-               file=sys.stderr)  # fmt: skip
-    try:
-        with lerobot_save_speedups(meta.features):  # exact episode stats, no embed_images where there are no images
-            for new_index, (e, frames) in enumerate(kept.items()):
-                rows = data[starts[e] + frames.start : starts[e] + frames.stop]  # columns of the kept frames
-                if images:  # camera frames go through LeRobot's image writer and video encoder, frame by frame
-                    for j, k in enumerate(frames):
-                        item = source[starts[e] + k]  # decodes the camera frames: (C, H, W) float in [0, 1]
-                        frame = {key: _value(rows[key][j], features[key]) for key in features if key not in images}
-                        for key in images:
-                            frame[key] = (item[key].permute(1, 2, 0).numpy() * 255.0).round().astype(np.uint8)
-                        target.add_frame({**frame, "task": tasks[int(item["task_index"])]})
-                        bar.update()
-                    target.save_episode()
-                else:  # vectors only: the whole episode at once (LeRobot's save_episode takes a built episode)
-                    n = len(frames)
-                    episode = {key: [_value(v, features[key]) for v in rows[key]] for key in features}
-                    episode.update(size=n, task=[tasks[int(t)] for t in rows["task_index"]], episode_index=new_index)
-                    episode.update(frame_index=np.arange(n), timestamp=np.arange(n) / meta.fps, index=[], task_index=[])
-                    target.save_episode(episode_data=episode)
-                    bar.update(n)
-                record = records.get(e)
-                if record is not None:
-                    new_records.append(_record(record, new_index, len(frames), rows, e, edits))
-    finally:
-        bar.close()
-        target.finalize()
-    _write_meta(src, out, new_records)
+
+    def camera_frames(index: int) -> dict[str, np.ndarray]:
+        item = source[index]  # decodes the camera frames: (C, H, W) float in [0, 1]
+        return {key: (item[key].permute(1, 2, 0).numpy() * 255.0).round().astype(np.uint8) for key in spec.cameras}
+
+    def takes():
+        for new_index, (e, frames) in enumerate(kept.items()):
+            first = starts[e] + frames.start
+            rows = data[first : starts[e] + frames.stop]  # columns of the kept frames
+            if e in records:
+                new_records.append(_record(records[e], new_index, len(frames), rows, e, edits))
+            yield Take(rows, (lambda j, first=first: camera_frames(first + j)) if spec.cameras else None)
+
+    write_episodes(out, spec, takes(), total=sum(len(r) for r in kept.values()), progress=progress)
+    write_meta(src, out, new_records)
     return {
         "source": str(src),
         "out": str(out),
@@ -204,8 +254,8 @@ def _record(record: dict, index: int, frames: int, rows: dict, source_index: int
     return out
 
 
-def _write_meta(src: Path, out: Path, records: list[dict]) -> None:
-    """meta/gloverec/ of the edited dataset: the episode records re-indexed, the other files copied."""
+def write_meta(src: Path, out: Path, records: list[dict]) -> None:
+    """meta/gloverec/ of a rewritten dataset: the episode records re-indexed, the other files copied."""
     mine, theirs = out / SIDECAR, src / SIDECAR
     if theirs.parent.is_dir():
         for f in theirs.parent.iterdir():

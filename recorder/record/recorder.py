@@ -272,7 +272,8 @@ class Recorder:
             self._report_saved(wait=True)
         finally:
             self.writer.close()
-            self.store.close()
+            # no episode ended (a glove that failed to open, a stop before the first): no hidden folder left behind
+            self.store.close(discard_empty=self.writer.submitted == 0)
         if self.logger is not None:
             self.logger.close()
         self.live.close()

@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import os
 import sys
+from collections.abc import Collection
 from pathlib import Path
 
 SIDECAR = "meta/gloverec/episodes.jsonl"
@@ -56,12 +57,16 @@ def episode_keys(root: str | Path) -> dict[int, tuple[int, float | None]]:
     for f in sorted((Path(root) / "meta" / "episodes").glob("*/*.parquet")):
         names = pq.read_schema(f).names
         cols = ["episode_index", "length"] + ([_START] if _START in names else [])
-        t = pq.read_table(f, columns=cols).to_pydict()
-        starts = t.get(_START, [None] * len(t["length"]))
-        for e, n, s in zip(t["episode_index"], t["length"], starts):
-            start = s[0] if isinstance(s, list) else s  # stats of a 1-d feature are 1-element lists
-            keys[int(e)] = (int(n), None if start is None else float(start))
+        for row in pq.read_table(f, columns=cols).to_pylist():
+            keys[int(row["episode_index"])] = episode_key(row)
     return keys
+
+
+def episode_key(row: dict) -> tuple[int, float | None]:
+    """(length, first frame's device time or None) of one row of the episode metadata."""
+    start = row.get(_START)
+    start = start[0] if isinstance(start, list) else start  # stats of a 1-d feature are 1-element lists
+    return int(row["length"]), None if start is None else float(start)
 
 
 def _same_episode(record: dict, key: tuple[int, float | None] | None) -> bool:
@@ -75,10 +80,13 @@ def _same_episode(record: dict, key: tuple[int, float | None] | None) -> bool:
     return abs(start - recorded) <= 1e-4 + 4e-7 * abs(recorded)  # time.device_s is stored as float32
 
 
-def read_sidecar(root: str | Path, keys: dict[int, tuple[int, float | None]] | None = None) -> list[dict]:
+def read_sidecar(
+    root: str | Path, keys: dict[int, tuple[int, float | None]] | None = None, among: Collection[int] | None = None
+) -> list[dict]:
     """Our per-episode metadata of a dataset, the records that describe its episodes (empty when it has none);
-    ``keys``: its ``episode_keys``, when the caller has read the episode metadata already."""
-    records = _records(root)
+    ``keys``: its ``episode_keys``, when the caller has read the episode metadata already; ``among``: only the
+    records of these episodes (the others neither matched nor warned about: `gloverec repair`'s lost ones)."""
+    records = [r for r in _records(root) if among is None or int(r["episode_index"]) in among]
     if not records:
         return []
     keys = episode_keys(root) if keys is None else keys

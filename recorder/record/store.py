@@ -100,12 +100,23 @@ def _lock(path: Path, root) -> int:
     while True:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            return fd
+            if _same_file(fd, path):
+                return fd
+            os.close(fd)  # the session it waited for removed the state directory (it saved nothing): lock anew
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
         except BlockingIOError:
             if time.monotonic() > end:
                 os.close(fd)
                 raise GloverecError(f"{root} is in use by another gloverec session") from None
             time.sleep(0.05)
+
+
+def _same_file(fd: int, path: Path) -> bool:
+    try:
+        return os.path.samestat(os.fstat(fd), os.stat(path))
+    except FileNotFoundError:
+        return False
 
 
 class EpisodeStore:
@@ -133,12 +144,13 @@ class EpisodeStore:
             raise GloverecError(f"{root} already exists: pass --resume to add episodes, or choose another --root")
         if exists and not self._ours():
             raise GloverecError(f"{root} is not a gloverec recording (no {self.state.name}/): cannot resume it")
+        self._fresh = not exists  # ROOT is this session's to make: nothing is there before it publishes
         self.state.mkdir(parents=True, exist_ok=True)
         self._lock = _lock(self.state / "lock", root)
         try:
             self._open(repo_id, fps, features, robot_type, resume, use_videos)
         except BaseException:
-            os.close(self._lock)
+            self._unlock(discard_empty=True)
             raise
 
     def _open(self, repo_id, fps, features, robot_type, resume, use_videos) -> None:
@@ -255,12 +267,25 @@ class EpisodeStore:
             shutil.rmtree(stale, ignore_errors=True)
         return final
 
-    def close(self) -> None:
-        """End the session: drop an unsaved episode; the published snapshot is the dataset."""
+    def close(self, discard_empty: bool = True) -> None:
+        """End the session: drop an unsaved episode; the published snapshot is the dataset. ``discard_empty``:
+        remove the state directory of a new dataset in which nothing was published (pass False while a writer
+        process forked from here may still publish)."""
         if self.writer.episode_buffer and self.writer.episode_buffer.get("size"):
             self.discard_episode()
         self.writer.close_writer()
         self.dataset.meta._close_writer()
-        if self._lock is not None:
-            os.close(self._lock)  # a writer process forked from here holds it until it exits too
-            self._lock = None
+        self._unlock(discard_empty)
+
+    def _unlock(self, discard_empty: bool) -> None:
+        if self._lock is None:
+            return
+        snapshots = self.snapshots.iterdir() if self.snapshots.is_dir() else ()
+        published = self._latest() is not None or any(p.name.isdigit() for p in snapshots)
+        if discard_empty and self._fresh and not published:
+            # a session that saved nothing (a glove that did not open, a stop before the first save) leaves no
+            # ROOT; its hidden .ROOT.gloverec/ would only hold an empty working copy (and the session log of no
+            # episode). Removed while locked: a session waiting for the lock sees it gone and makes its own.
+            shutil.rmtree(self.state, ignore_errors=True)
+        os.close(self._lock)  # a writer process forked from here holds it until it exits too
+        self._lock = None

@@ -72,6 +72,7 @@ class EpisodeWriter:
         self._proc.start()
         child.close()
         self.pending = 0
+        self.submitted = 0  # episodes handed over in this session
 
     def submit(self, episode: dict, sidecar: dict) -> None:
         try:
@@ -79,6 +80,7 @@ class EpisodeWriter:
         except (BrokenPipeError, OSError):
             self._died()
         self.pending += 1
+        self.submitted += 1
 
     def results(self, wait: bool = False) -> list[tuple[int, dict]]:
         """(index, sidecar) of the episodes saved since the last call; ``wait``: until none is pending."""

@@ -83,30 +83,74 @@ def add_edit_parser(sub) -> None:
 
 
 def cmd_edit(args) -> int:
-    from recorder.hub.store import Hub  # pyarrow: not at start-up
     from recorder.record.edit import Edits
-    from recorder.record.inspect import dataset_root
     from recorder.review.publish import publish
 
     edits = Edits.parse(args.delete, args.trim, args.success)
     if not edits and not args.merge:
         raise GloverecError("nothing to do: pass --delete, --trim, --success or --merge")
-    if args.version and not args.hub:
-        raise GloverecError("--version names a hub version: pass --hub too")
-    hub = None
-    if args.hub is not None:
-        hub = Hub(args.hub)
-        src = hub.checked(args.repo_id, args.version).path
-    else:
-        src = dataset_root(args.repo_id, args.root, None)
-        if args.out is None:
-            raise GloverecError("pass --out DIR: a recording is not edited in place (or --hub for a hub dataset)")
-    out = Path(args.out) if args.out else None
+    src, hub, out, _ = _source(args, "edited")
     summary = publish(src, args.repo_id, edits, hub=hub, out=out, merge=args.merge, progress=not args.json)
     if args.json:
         print(json.dumps(summary), flush=True)
     else:
-        where = f"{args.repo_id} {summary['version']}" if "version" in summary else summary["out"]
         what = "; ".join(filter(None, (summary["edits"], f"merged {' '.join(args.merge)}" if args.merge else "")))
+        where = _where(args, summary)
         print(f"{where}: {summary['episodes']} episodes, {summary['frames']} frames ({what}; from {src})")
     return 0
+
+
+def add_repair_parser(sub) -> None:
+    """`gloverec repair` (recorder/record/repair.py; here because it publishes as `edit` does)."""
+    p = sub.add_parser(
+        "repair",
+        help="rescue a damaged dataset's intact episodes: a new dataset folder or the hub's next version",
+        description="Read each episode of a damaged dataset on its own (its metadata row, data and videos), keep "
+        "those that read, re-indexed from 0 with their gloverec records, and say which were dropped and why. The "
+        "source is not changed: the result goes to --out, or for a hub dataset to the hub's next version.",
+    )
+    _dataset_flags(p, "repair")
+    p.add_argument("--out", help="the repaired dataset, a new folder (default with --hub: the hub's next version)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=cmd_repair)
+
+
+def cmd_repair(args) -> int:
+    from recorder.review.publish import publish_repair
+
+    src, hub, out, suspect = _source(args, "repaired", checked=False)
+    summary = publish_repair(src, args.repo_id, hub=hub, out=out, suspect=suspect, progress=not args.json)
+    if args.json:
+        print(json.dumps(summary), flush=True)
+        return 0
+    for e, why in summary["dropped"].items():
+        print(f"episode {e} dropped: {why}")
+    print(f"{_where(args, summary)}: kept {summary['episodes']} of {summary['source_episodes']} episodes, "
+          f"{summary['frames']} frames (dropped {len(summary['dropped'])}; from {src})")  # fmt: skip
+    return 0
+
+
+def _source(args, done: str, checked: bool = True):
+    """(the dataset folder, the hub or None, --out, the files the hub's manifest says are damaged) of the flags; a
+    hub version is checked against its manifest first unless ``checked`` is False (repair reads around damage)."""
+    from recorder.hub.store import Hub  # pyarrow: not at start-up
+    from recorder.record.inspect import dataset_root
+
+    if args.version and not args.hub:
+        raise GloverecError("--version names a hub version: pass --hub too")
+    out = Path(args.out) if args.out else None
+    if args.hub is None:
+        src = dataset_root(args.repo_id, args.root, None)
+        if out is None:
+            raise GloverecError(f"pass --out DIR: a recording is not {done} in place (or --hub for a hub dataset)")
+        return src, None, out, set()
+    hub = Hub(args.hub)
+    if checked:
+        return hub.checked(args.repo_id, args.version).path, hub, out, set()
+    version = hub.version(args.repo_id, args.version)
+    damage = hub.check(version).damage
+    return version.path, hub, out, {*damage.missing, *damage.altered}
+
+
+def _where(args, summary: dict) -> str:
+    return f"{args.repo_id} {summary['version']}" if "version" in summary else summary["out"]

@@ -16,8 +16,9 @@ import logging
 import sys
 from pathlib import Path
 
+from policies.checkpoint import BASELINES, find_pretrained
 from policies.config import TrainConfig
-from recorder import GloverecError, config
+from recorder import GloverecError, config, loading
 from recorder.argtypes import natural, positive_int
 from recorder.paths import HUB_ENV
 
@@ -119,14 +120,16 @@ def _setup(threads: int | None = None):
 
 
 def cmd_train(args: argparse.Namespace) -> int:
-    from policies.data import resolve  # torch and lerobot: not at start-up
-    from policies.train import train
+    from policies.dataref import resolve  # no torch: the datasets are checked before it loads
 
     cfg = TrainConfig.load(args.config, **config.overrides(args, TrainConfig))
     ref = resolve(args.repo_id, args.hub, args.root, args.version)
     also = tuple(_also(text, args.hub) for text in args.also)
     if args.resume and also:
         raise GloverecError("--resume trains on the datasets it started with: leave out --also")
+    loading("LeRobot and torch")
+    from policies.train import train  # torch and lerobot: not at start-up
+
     with _quiet_stdout(args.json), _setup(args.threads):
         summary = train(ref, args.out, cfg, policy=args.policy, resume=args.resume,
                         progress=sys.stderr.isatty() or not args.json, also=also)  # fmt: skip
@@ -152,7 +155,7 @@ def cmd_train(args: argparse.Namespace) -> int:
 def _also(text: str, hub: str | None):
     """An --also dataset: a folder holding one (its id: the one it was recorded as, from our sidecar, else the
     folder's last two names), else USER/NAME[@vN] in the hub."""
-    from policies.data import recorded_with, resolve  # torch and lerobot: not at start-up
+    from policies.dataref import recorded_with, resolve  # no torch
 
     folder = Path(text)
     if (folder / "meta" / "info.json").is_file():
@@ -179,6 +182,9 @@ def cmd_eval(args: argparse.Namespace) -> int:
     from envs import check_names  # MuJoCo (0.2 s): not at start-up
 
     check_names(args.robot, args.task)  # at once, not after torch and lerobot have loaded
+    if args.policy not in BASELINES:
+        find_pretrained(args.policy)  # a folder without a checkpoint, likewise
+    loading("LeRobot and MuJoCo")
     from policies import evaluate as ev  # torch, lerobot and mujoco: not at start-up
 
     seed = ev.EVAL_SEED if args.seed is None else args.seed
@@ -207,10 +213,12 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from policies.data import resolve  # torch, lerobot and mujoco: not at start-up
-    from policies.replay import replay
+    from policies.dataref import resolve  # no torch: the dataset is checked before it loads
 
     ref = resolve(args.repo_id, args.hub, args.root, args.version)
+    loading("LeRobot and MuJoCo")
+    from policies.replay import replay  # torch, lerobot and mujoco: not at start-up
+
     with _quiet_stdout(args.json), _setup():
         out = replay(ref, args.episode, args.video)
     if args.json:

@@ -45,6 +45,7 @@ import policies.bc  # noqa: F401  (registers gloverec_bc)
 from envs.robots import load_robot, robot_names
 from envs.tasks import CAMERAS
 from envs.tasks.base import BASE_POSITION, action_names
+from policies.checkpoint import BASELINES as BASELINE_NAMES, find_pretrained
 from policies.data import dataset_info, recorded_with, sidecar
 from recorder import GloverecError
 from recorder.demonstrator import make_demonstrator
@@ -158,22 +159,10 @@ class FistAgent:
         return self.retarget(self.postures[int(closed)])[0]
 
 
-BASELINES = {"demonstrator": DemonstratorAgent, "random": RandomAgent, "fist": FistAgent}
+BASELINES = dict(zip(BASELINE_NAMES, (DemonstratorAgent, RandomAgent, FistAgent), strict=True))
 
 
 # ---------------------------------------------------------------- loading checkpoints
-
-
-def find_pretrained(path: str | Path) -> Path:
-    """The pretrained_model folder of ``path``: itself, PATH/pretrained_model or PATH/checkpoints/last/..."""
-    p = Path(path)
-    for c in (p, p / "pretrained_model", p / "checkpoints" / "last" / "pretrained_model"):
-        if (c / "config.json").is_file() and (c / "model.safetensors").is_file():
-            return c.resolve()  # checkpoints/last moves on as training goes on: report the step's folder
-    raise GloverecError(
-        f"{path} holds no LeRobot policy (config.json + model.safetensors): give a "
-        "pretrained_model folder, a checkpoint folder or a training output folder"
-    )
 
 
 def policy_context(pretrained: Path) -> dict:

@@ -18,3 +18,13 @@ def one_line(exc: BaseException) -> str:
     """An exception's message as one short line (its first), or its type's name when it has none."""
     text = str(exc).strip()
     return text.splitlines()[0] if text else type(exc).__name__
+
+
+def loading(what: str) -> None:
+    """Say that a command now loads its heavy modules (``what``: seconds of them), once its quick checks have
+    passed: the person who pressed Enter sees it has started. On a terminal only: where stderr is a pipe or a
+    file, a script reads a failure as one line."""
+    import sys
+
+    if sys.stderr is not None and sys.stderr.isatty():
+        print(f"loading {what}…", file=sys.stderr, flush=True)

@@ -93,7 +93,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     calibrate_cli.add_parser(sub)
     view_cli.add_parser(sub)
-    record_cli.add_parsers(sub, load_policy=_load_policy)
+    record_cli.add_parsers(sub, load_policy=_load_policy, check_policy=_check_policy)
     record_cli.add_rerecord_parser(sub)
     inspect_cli.add_parsers(sub)
     review_cli.add_edit_parser(sub)
@@ -214,6 +214,13 @@ def _load_policy(path, env, task: str, robot: str, fps: float):
     from policies.evaluate import load_for_recording  # torch and lerobot: not at start-up
 
     return load_for_recording(path, env, task, robot, fps)
+
+
+def _check_policy(path) -> None:
+    """`gloverec record --policy`: a folder that holds no checkpoint, said before torch and lerobot load."""
+    from policies.checkpoint import find_pretrained  # pathlib only
+
+    find_pretrained(path)
 
 
 def cmd_wrist(args) -> int:

@@ -32,7 +32,10 @@ import warnings
 # What `gloverec record` imports before it forks its writer (recorder/record/writer.py): forking after them is what
 # every recording does already. Their native threads (OpenBLAS's pool, pyarrow's jemalloc thread) handle a fork;
 # what must not exist is a Python thread, or an OpenMP pool that torch started (none is, until torch computes).
-PRELOAD = ("recorder.cli", "recorder.record.recorder", "recorder.fusion.session", "envs.tasks")
+# (LeRobot's dataset code and scipy's optimizer load when a recording opens its store or solves a posture, not with
+# those modules: named here so that each command still finds them loaded)
+PRELOAD = ("recorder.cli", "recorder.record.recorder", "recorder.fusion.session", "envs.tasks",
+           "lerobot.datasets.lerobot_dataset", "recorder.record.episode_stats", "scipy.optimize")  # fmt: skip
 # LeRobot's commands that the docs run (tests/docs_runner.py): after PRELOAD their imports take 0.3 s, where a fresh
 # interpreter takes 5-8 s of CPU. Each has SHIM on the docs runner's PATH under its own name.
 LEROBOT = ("lerobot-record", "lerobot-teleoperate", "lerobot-replay", "lerobot-train", "lerobot-edit-dataset",

@@ -13,7 +13,6 @@ from functools import lru_cache
 
 import mujoco
 import numpy as np
-from scipy.optimize import minimize
 
 from recorder.hand.kinematics import JOINTS, LIMITS, interpolate_dip
 
@@ -81,5 +80,7 @@ def search(robot: str, base, joints, start, cost, maxiter: int = 300) -> np.ndar
 
     def total(p):
         return 1e4 * cost(robot_tips(robot, posture(base, joints, p))) + 1e-5 * np.sum((p - start) ** 2)
+
+    from scipy.optimize import minimize  # 0.5 s of imports: when a posture is solved, not when tasks load
 
     return minimize(total, start, method="L-BFGS-B", bounds=bounds(joints), options={"maxiter": maxiter}).x

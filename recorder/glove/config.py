@@ -35,7 +35,8 @@ class GloveSource:
     ``opener(config, realtime, **link_options)`` returns the unopened link (a recorder.link.base.GloveSource: the
     frames, a reader thread, reconnects), or is its "module:function" name; ``device``: the glove is on a wire and
     runs in real time (serial, UDP), else it can play faster (a log, the emulator); ``check`` raises ConfigError
-    for a bad address; ``spec``: how it is written, for help and errors."""
+    for a bad address; ``present`` raises GloverecError when the address names nothing there now (a port not
+    plugged in, a missing file); ``spec``: how it is written, for help and errors."""
 
     name: str
     opener: Callable | str
@@ -43,6 +44,7 @@ class GloveSource:
     spec: str
     check: Callable[[str], None] | None = None
     address: bool = True
+    present: Callable[[str], None] | None = None
 
     def link(self, config: GloveConfig, realtime: bool = True, **options):
         """The opener's unopened link for ``config`` (an opener named by a string is imported now)."""
@@ -56,7 +58,8 @@ class GloveSource:
 _SOURCES: dict[str, GloveSource] = {}
 
 
-def register_glove_source(name: str, *, device: bool, spec: str | None = None, check=None, address: bool = True):
+def register_glove_source(name: str, *, device: bool, spec: str | None = None, check=None, address: bool = True,
+                          present=None):  # fmt: skip
     """Decorator of a source's ``opener(config, realtime, **link_options)`` (or called on its "module:function"
     name): glove kind ``name``; ``address=False``: written as the name alone (``emulator``)."""
 
@@ -64,7 +67,7 @@ def register_glove_source(name: str, *, device: bool, spec: str | None = None, c
         if name in _SOURCES and _qualname(_SOURCES[name].opener) != _qualname(opener):
             raise ConfigError(f"glove source {name!r} is registered already")
         _SOURCES[name] = GloveSource(name, opener, device, spec or (f"{name}:ADDRESS" if address else name), check,
-                                     address)  # fmt: skip
+                                     address, present)  # fmt: skip
         return opener
 
     return register
@@ -190,6 +193,13 @@ class GloveConfig:
 
     def __str__(self) -> str:
         return f"{self.kind}:{self.address}" if glove_source(self.kind).address else self.kind
+
+    def check_present(self) -> None:
+        """A port that is not plugged in or a log that is not there: one line, before a command's heavy imports
+        (opening the glove says it too, but only after them). A glove that goes away later is the link's to handle."""
+        source = glove_source(self.kind)
+        if source.address and source.present is not None:
+            source.present(self.address)
 
     @property
     def is_device(self) -> bool:

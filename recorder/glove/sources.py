@@ -7,12 +7,25 @@ task registry names a task's demonstrator, and imported when an emulated glove o
 
 from __future__ import annotations
 
+import os
+
+from recorder import GloverecError
 from recorder.glove.config import EMULATOR, register_glove_source, udp_address
 
 register_glove_source(EMULATOR, device=False, address=False)("recorder.emulator.source:emulated")
 
 
-@register_glove_source("serial", device=True, spec="serial:PORT (or a device path)")
+def _port_present(address: str) -> None:
+    if not os.path.exists(address):  # as SerialSource.check says it when the glove opens
+        raise GloverecError(f"cannot open serial:{address}: no such port")
+
+
+def _log_present(address: str) -> None:
+    if not os.path.isfile(address):
+        raise GloverecError(f"cannot read {address}: no such file")
+
+
+@register_glove_source("serial", device=True, spec="serial:PORT (or a device path)", present=_port_present)
 def serial(config, realtime: bool = True, **options):
     from recorder.link.serial_source import (
         SerialSource,  # the link loads when a glove of this kind opens, not at start-up
@@ -29,7 +42,7 @@ def udp(config, realtime: bool = True, **options):
     return UdpSource(port, host, **options)
 
 
-@register_glove_source("mcap", device=False, spec="mcap:FILE (a session log)")
+@register_glove_source("mcap", device=False, spec="mcap:FILE (a session log)", present=_log_present)
 def mcap(config, realtime: bool = True, **options):
     from recorder.log.playback import McapSource  # the link loads when a glove of this kind opens, not at start-up
 

@@ -6,29 +6,36 @@ from __future__ import annotations
 import argparse
 import json
 
-from recorder import GloverecError, config
+from recorder import GloverecError, config, loading
 from recorder.record.config import RecordConfig
 
 RERECORD_FIELDS = ("repo_id", "root", "robot", "task", "fps", "retarget", "cameras", "wearer", "dart", "dart_time_s")
 
 
-def add_parsers(sub, load_policy=None) -> None:
-    """``load_policy(path, env, task, robot, fps) -> agent``: what loads a --policy checkpoint (policies/ is a layer
-    above this one)."""
+def add_parsers(sub, load_policy=None, check_policy=None) -> None:
+    """``load_policy(path, env, task, robot, fps) -> agent``: what loads a --policy checkpoint, and
+    ``check_policy(path)`` what says at once that a folder holds none (policies/ is a layer above this one)."""
     r = sub.add_parser("record", help="record demonstrations from a glove into a LeRobot dataset")
     r.add_argument("--config", help="a record YAML file (keys: the flags' names with _); flags override it")
     config.add_arguments(r, RecordConfig)
     r.add_argument("--json", action="store_true", help="print a JSON summary at the end")
-    r.set_defaults(func=run_record, load_policy=load_policy)
+    r.set_defaults(func=run_record, load_policy=load_policy, check_policy=check_policy)
 
 
 def run_record(args: argparse.Namespace) -> int:
     from recorder.hand.profile import wearer_profile  # numpy and the hand model: not at start-up
+    from recorder.record.store import check_root  # no LeRobot: the store loads it when it opens
 
     cfg = RecordConfig.load(args.config, **config.overrides(args, RecordConfig))
-    cfg.check()  # names and values: one line in a fraction of a second, before lerobot and torch load
-    profile = wearer_profile(cfg.wearer)  # a missing or impossible profile: one line, before the heavy imports
+    # everything that needs no heavy import first: one line in a fraction of a second, before lerobot and torch
+    cfg.check()  # names, values and the wrist's files
+    cfg.glove_config.check_present()  # a port not plugged in, a missing log
+    if cfg.policy is not None and args.check_policy is not None:
+        args.check_policy(cfg.policy)  # a folder without a checkpoint
+    check_root(cfg.root_path, cfg.resume)  # the dataset folder: there already, not ours, damaged
+    profile = wearer_profile(cfg.wearer)  # a missing or impossible profile
 
+    loading("LeRobot and MuJoCo")
     from recorder.record.recorder import record  # loads lerobot, torch and mujoco: not at start-up
 
     load = args.load_policy
@@ -64,7 +71,6 @@ def run_rerecord(args: argparse.Namespace) -> int:
     from recorder.hand.profile import profile_from_dict
     from recorder.log.playback import read_log  # with the recorder: not at start-up
     from recorder.log.writer import WRIST_TOPIC
-    from recorder.record.recorder import Recorder  # lerobot, torch and mujoco
 
     info = read_log(args.log_file)  # a missing, foreign or damaged file: one-line GloverecError
     session = info.metadata.get("gloverec.session", {})
@@ -101,6 +107,9 @@ def run_rerecord(args: argparse.Namespace) -> int:
             profile = profile_from_dict(json.loads(logged), f"{args.log_file}: hand_profile")
         except json.JSONDecodeError:
             raise GloverecError(f"{args.log_file}: its hand_profile is not JSON") from None
+    loading("LeRobot and MuJoCo")
+    from recorder.record.recorder import Recorder  # lerobot, torch and mujoco: after the log's checks
+
     summary = Recorder(cfg, plan=plan, profile=profile).run()
     summary["source_log"] = args.log_file
     saved = f"re-recorded {summary['episodes_saved']} of {len(plan)} episode(s) from {args.log_file}"

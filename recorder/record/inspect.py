@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from recorder import GloverecError
+from recorder import GloverecError, loading
 from recorder.dataset_check import check_dataset
 from recorder.record.config import REPO_ID
 from recorder.record.sidecar import SIDECAR, carry_sidecar, episode_notes, read_sidecar
@@ -266,6 +266,7 @@ def run(args) -> int:
     if not root.exists():
         raise GloverecError(f"no dataset at {root}")
     check_dataset(root)  # a damaged dataset: one line saying what is wrong, before lerobot reads it
+    loading("LeRobot")
     meta = load_meta(args.repo_id, root)
     rows = episodes_table(meta)
     plot = None

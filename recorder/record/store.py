@@ -25,15 +25,9 @@ import shutil
 import time
 from pathlib import Path
 
-import datasets
-from lerobot.datasets.lerobot_dataset import LeRobotDataset
-from lerobot.datasets.utils import DEFAULT_DATA_FILE_SIZE_IN_MB, DEFAULT_VIDEO_FILE_SIZE_IN_MB
-
 from recorder import GloverecError
 from recorder.dataset_check import check_dataset
-from recorder.record.episode_stats import lerobot_save_speedups
 from recorder.record.sidecar import append_sidecar
-from recorder.video_backend import video_backend
 
 STATE_SUFFIX = ".gloverec"
 IMMUTABLE = ("data/", "meta/episodes/", "videos/", "logs/")  # never rewritten once closed (session logs: only
@@ -48,6 +42,26 @@ TINY_MB = 1e-6  # lerobot file-size limit in the working copy: forces one file p
 
 def state_dir(root: Path) -> Path:
     return root.parent / f".{root.name}{STATE_SUFFIX}"
+
+
+def check_root(root: str | Path, resume: bool) -> None:
+    """What the store refuses, checked before LeRobot loads (seconds): ``root`` there without ``resume``, a folder
+    that is not a gloverec recording, a damaged one to resume. One-line GloverecError."""
+    path = Path(root).absolute()
+    exists = path.exists() or path.is_symlink()
+    if exists and not resume:
+        raise GloverecError(f"{root} already exists: pass --resume to add episodes, or choose another --root")
+    if exists and not (path.is_symlink() and state_dir(path).is_dir()):
+        raise GloverecError(f"{root} is not a gloverec recording (no {state_dir(path).name}/): cannot resume it")
+    if exists and path.resolve().is_dir():
+        check_dataset(path)
+
+
+def lerobot_save_speedups(features: dict):
+    """recorder/record/episode_stats.py's, which imports LeRobot: loaded when the first episode is saved."""
+    from recorder.record.episode_stats import lerobot_save_speedups as speedups
+
+    return speedups(features)
 
 
 def _fsync(path: Path) -> None:
@@ -68,6 +82,8 @@ def _files(base: Path):
 def _clone(src: Path, dst: Path, published_info: bool, durable: set | None = None) -> None:
     """Copy a dataset tree: hard links for immutable per-episode files, real copies for the rest; everything
     fsynced except the linked files named in ``durable`` (synced by an earlier clone; new ones are added)."""
+    from lerobot.datasets.utils import DEFAULT_DATA_FILE_SIZE_IN_MB, DEFAULT_VIDEO_FILE_SIZE_IN_MB
+
     durable = set() if durable is None else durable
     dst.mkdir(parents=True)
     for rel, p in _files(src):
@@ -132,6 +148,7 @@ class EpisodeStore:
         resume: bool = False,
         use_videos: bool = True,
     ):
+        import datasets  # with LeRobot: loaded when a store opens, after the checks (check_root)
 
         datasets.disable_progress_bars()  # one "Map" bar per episode says nothing to a person recording
         self.root = Path(root).absolute()
@@ -154,6 +171,9 @@ class EpisodeStore:
             raise
 
     def _open(self, repo_id, fps, features, robot_type, resume, use_videos) -> None:
+        from lerobot.datasets.lerobot_dataset import LeRobotDataset  # torch and LeRobot (seconds): not at start-up
+
+        from recorder.video_backend import video_backend
 
         if not resume and (self.root.exists() or self.root.is_symlink()):  # appeared while we waited
             raise GloverecError(f"{self.root} already exists: pass --resume to add episodes, or choose another --root")

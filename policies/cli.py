@@ -72,8 +72,10 @@ def add_parsers(subparsers) -> None:
         type=natural,
         help="seed of the first episode, then +1 each (default 100000, away from the recorder's seeds 0, 1, ...)",
     )
-    e.add_argument("--video", metavar="DIR", help="write videos of the first episodes here (mp4)")
-    e.add_argument("--videos", type=natural, default=2, help="how many episodes to film (default 2)")
+    e.add_argument("--video", metavar="DIR|FILE.mp4", help="film the first episodes: into this folder, one mp4 "
+                   "each named with its seed and outcome, or the first episode into FILE.mp4")  # fmt: skip
+    e.add_argument("--videos", type=natural, help="how many episodes to film (default 2 into a folder, 1 into a "
+                   "FILE.mp4)")  # fmt: skip
     e.add_argument("--threads", type=positive_int, default=1, help="torch CPU threads (default 1)")
     e.add_argument("--workers", type=positive_int, default=1,
                    help="episodes in this many processes at once, one torch thread each (default 1); the same "
@@ -87,7 +89,8 @@ def add_parsers(subparsers) -> None:
     r = subparsers.add_parser("replay", help="replay an episode's actions open loop and measure state divergence")
     _dataset_flags(r)
     r.add_argument("--episode", type=natural, required=True, help="episode index")
-    r.add_argument("--video", metavar="FILE", help="write a video of the replay (mp4)")
+    r.add_argument("--video", metavar="FILE.mp4|DIR", help="film the replay: into FILE.mp4, or into this folder "
+                   "as episodeK_replay.mp4")  # fmt: skip
     r.add_argument("--json", action="store_true", help="print one JSON object")
     r.set_defaults(func=cmd_replay)
 
@@ -184,6 +187,11 @@ def cmd_eval(args: argparse.Namespace) -> int:
     check_names(args.robot, args.task)  # at once, not after torch and lerobot have loaded
     if args.policy not in BASELINES:
         find_pretrained(args.policy)  # a folder without a checkpoint, likewise
+    one_file = bool(args.video) and args.video.lower().endswith(".mp4")
+    if one_file and (args.videos or 1) > 1:
+        raise GloverecError(f"--video {args.video} is one file: it films one episode (pass a folder for "
+                            f"--videos {args.videos})")  # fmt: skip
+    args.videos = args.videos if args.videos is not None else (1 if one_file else 2)
     loading("LeRobot and MuJoCo")
     from policies import evaluate as ev  # torch, lerobot and mujoco: not at start-up
 

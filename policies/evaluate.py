@@ -49,6 +49,7 @@ from policies.checkpoint import BASELINES as BASELINE_NAMES, find_pretrained
 from policies.data import dataset_info, recorded_with, sidecar
 from recorder import GloverecError
 from recorder.demonstrator import make_demonstrator
+from recorder.paths import video_file
 from recorder.plugins import PLUGINS_ENV, load_plugins
 from recorder.retarget import Retargeter
 
@@ -389,7 +390,8 @@ def build_agent(job: EvalJob):
 
 def run_episode(agent, env, k: int, seed: int, video_dir=None, videos: int = 0) -> tuple[dict, str | None]:
     """Episode ``k`` of an evaluation, with seed ``seed`` (the environment's and torch's: a policy that samples
-    draws the same numbers in any process); filmed into ``video_dir`` when ``k < videos``."""
+    draws the same numbers in any process); filmed into ``video_dir`` when ``k < videos`` (a folder, or a FILE.mp4
+    for one episode: recorder.paths.video_file)."""
     torch.manual_seed(seed)
     obs, info = env.reset(seed=seed)
     agent.reset(env, seed)
@@ -416,7 +418,7 @@ def run_episode(agent, env, k: int, seed: int, video_dir=None, videos: int = 0) 
     path = None
     if filming:
         name = f"episode{k:03d}_seed{seed}_{'success' if ok else 'failure'}.mp4"
-        path = str(_write_video(Path(video_dir) / name, frames, float(env.unwrapped.config.control_hz)))
+        path = str(_write_video(video_file(video_dir, name), frames, float(env.unwrapped.config.control_hz)))
     return run, path
 
 
@@ -432,8 +434,6 @@ def evaluate(
     """Run ``episodes`` episodes (seeds seed, seed+1, ...) in this process; videos of the first ``videos`` into
     ``video_dir``."""
     t0 = time.perf_counter()
-    if video_dir is not None:
-        Path(video_dir).mkdir(parents=True, exist_ok=True)
     done = [
         run_episode(agent, env, k, seed + k, video_dir, videos)
         for k in tqdm(range(episodes), desc="evaluating", unit="episode", disable=not progress, file=sys.stderr)
@@ -466,8 +466,6 @@ def evaluate_job(job: EvalJob, episodes: int, seed: int = EVAL_SEED, pool=None, 
             if own:
                 env.close()
     t0 = time.perf_counter()
-    if job.video_dir is not None:
-        Path(job.video_dir).mkdir(parents=True, exist_ok=True)
     done, name = {}, None
     bar = tqdm(total=episodes, desc="evaluating", unit="episode", disable=not progress, file=sys.stderr)
     for k, who, result in pool.imap_unordered(_worker_episode, [(job, k, seed + k) for k in range(episodes)]):

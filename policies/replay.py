@@ -18,6 +18,7 @@ from lerobot.datasets.lerobot_dataset import LeRobotDataset
 from policies.data import DatasetRef, dataset_info, sidecar
 from policies.evaluate import VIDEO_SIZE, _write_video, make_env
 from recorder import GloverecError
+from recorder.paths import video_file
 from recorder.video_backend import video_backend
 
 TOLERANCE = 1e-5  # float32 rounding; a replay within it reproduces the recording
@@ -117,5 +118,5 @@ def replay(
         wall_s=round(time.perf_counter() - t0, 2),
     )
     if video:
-        out["video"] = str(_write_video(Path(video), film, fps))
+        out["video"] = str(_write_video(video_file(video, f"episode{episode:03d}_replay.mp4"), film, fps))
     return out

@@ -28,6 +28,15 @@ def calibration_dir(arg: str | os.PathLike | None = None) -> Path:
     return Path(arg or os.environ.get(CALIBRATION_ENV) or DATASETS / "calibration")
 
 
+def video_file(target: str | os.PathLike, name: str) -> Path:
+    """``--video``'s one rule in every command that films (eval, replay, view): a path ending in ``.mp4`` is the
+    file itself; any other path is a folder, made when missing, where the video is written as ``name``."""
+    target = Path(target)
+    path = target if target.suffix.lower() == ".mp4" else target / name
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return path
+
+
 def configs_dir() -> Path:
     """The shipped configs (robot, task, record, train, fusion). A wheel carries the repository's configs/ as
     recorder/configs; a checkout (an editable install) has them beside the package."""

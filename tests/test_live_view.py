@@ -330,11 +330,13 @@ def test_bad_views_are_one_line(tmp_path):
     assert r.returncode == 2 and "expected web, web:PORT or web:HOST:PORT" in r.stderr
 
 
+@pytest.mark.parametrize("beside_realtime", [False, True])
 @pytest.mark.parametrize("setting", [None, "idle", "normal", "bogus"])
-def test_the_view_takes_only_idle_cpu_unless_told_to_keep_up(setting, monkeypatch):
+def test_the_view_takes_only_idle_cpu_unless_told_to_keep_up(setting, beside_realtime, monkeypatch):
     """The view process's first act (`_step_aside`), run in a forked child (the idle class cannot be left without
-    privileges): the idle scheduling class by default, the command's own with GLOVEREC_VIEW_PRIORITY=normal; a
-    command refuses any other value in one line before it starts a view."""
+    privileges): the idle scheduling class by default, the command's own beside a recording whose loop runs in the
+    real-time class or with GLOVEREC_VIEW_PRIORITY=normal; a command refuses any other value in one line before it
+    starts a view."""
     import warnings
 
     from recorder.config import ConfigError
@@ -355,7 +357,7 @@ def test_the_view_takes_only_idle_cpu_unless_told_to_keep_up(setting, monkeypatc
         pid = os.fork()
     if pid == 0:
         try:
-            process._step_aside()
+            process._step_aside(beside_realtime)
             os.write(write, str(os.sched_getscheduler(0)).encode())
         finally:
             os._exit(0)
@@ -363,4 +365,5 @@ def test_the_view_takes_only_idle_cpu_unless_told_to_keep_up(setting, monkeypatc
     os.waitpid(pid, 0)
     got = int(os.read(read, 16) or b"-1")
     os.close(read)
-    assert got == (os.sched_getscheduler(0) if setting == "normal" else os.SCHED_IDLE), got
+    normal = setting == "normal" or (setting is None and beside_realtime)
+    assert got == (os.sched_getscheduler(0) if normal else os.SCHED_IDLE), got

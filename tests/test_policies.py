@@ -374,25 +374,15 @@ def test_eval_json_of_an_untrained_policy_reports_failure(dataset, tmp_path):
     ckpt = tmp_path / "untrained"
     for part in (policy, pre, post):
         part.save_pretrained(ckpt)
-    video = tmp_path / "videos"
-    out = ok_json(
-        "eval",
-        "--policy",
-        str(ckpt),
-        "--task",
-        "pose",
-        "--robot",
-        "glovehand",
-        "--episodes",
-        "3",
-        "--video",
-        str(video),
-        "--videos",
-        "1",
-    )
+    video = tmp_path / "films" / "first.mp4"  # a FILE.mp4: the first episode, filmed into it
+    out = ok_json("eval", "--policy", str(ckpt), "--task", "pose", "--robot", "glovehand", "--episodes", "3",
+                  "--video", str(video))  # fmt: skip
     assert out["success_rate"] == 0.0 and out["episodes"] == 3 and out["policy_type"] == "gloverec_bc"
     assert out["episode_lengths"] == [150, 150, 150] and isinstance(out["mean_return"], float)
-    assert len(out["videos"]) == 1 and Path(out["videos"][0]).stat().st_size > 1000
+    assert out["videos"] == [str(video)] and video.stat().st_size > 1000
+    r = cli("eval", "--policy", str(ckpt), "--task", "pose", "--robot", "glovehand", "--video", str(video),
+            "--videos", "2")  # fmt: skip
+    one_line_error(r, "is one file: it films one episode (pass a folder for --videos 2)")
 
 
 def test_eval_takes_task_robot_and_rate_from_the_checkpoint(trained):
@@ -437,9 +427,11 @@ def test_same_shapes_with_other_feature_names_are_refused(trained, tmp_path):
 # ---------------------------------------------------------------- gloverec replay
 
 
-def test_replay_reproduces_the_recorded_states(dataset):
+def test_replay_reproduces_the_recorded_states(dataset, tmp_path):
     n = LeRobotDatasetMetadata(REPO, root=dataset).episodes[1]["length"]
-    out = ok_json("replay", "--repo-id", REPO, "--root", str(dataset), "--episode", "1")
+    films = tmp_path / "films"  # a folder: --video's one rule across commands (recorder.paths.video_file)
+    out = ok_json("replay", "--repo-id", REPO, "--root", str(dataset), "--episode", "1", "--video", str(films))
+    assert out["video"] == str(films / "episode001_replay.mp4") and Path(out["video"]).stat().st_size > 1000
     assert out["reproduced"] and out["frames"] == n and len(out["max_abs_per_step"]) == n
     assert out["state_max_abs"] <= 1e-6 and out["environment_state_max_abs"] <= 1e-6
     assert out["seed"] == 1 and out["replayed_success"] == out["recorded_success"] is True

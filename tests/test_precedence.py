@@ -91,6 +91,15 @@ def test_the_view_slows_down_when_the_recording_is_late_and_says_so():
     assert pace.fps == 20.0 and pace.note() is None
 
 
+def test_a_tick_late_by_a_small_share_of_its_period_does_not_slow_the_view():
+    pace, t = Pace(20.0), 0.0
+    for _ in range(40):  # 2.5 ms late at 30 fps (33 ms ticks): as a loaded machine gives, harmless
+        t += pace.period({"late_ms": 2.5, "period_ms": 1e3 / 30}, now=t)
+    assert pace.fps == 20.0 and not pace.backed_off
+    pace.period({"late_ms": 2.5, "period_ms": 10.0}, now=t)  # at 100 fps it is a quarter of the period
+    assert pace.backed_off and pace.fps == 10.0
+
+
 def test_a_view_starved_of_cpu_says_what_it_draws_with():
     pace, t = Pace(20.0), 0.0
     for _ in range(10):  # asked for 20 frames/s, drew 5: the machine is busy, the recording is not late

@@ -16,6 +16,7 @@ import time
 
 import numpy as np
 
+from recorder.record import precedence
 from recorder.view import wrist as wrist_view
 from recorder.view.overlay import wrist_brief
 from recorder.view.process import ViewSpec, default_view, open_view
@@ -41,8 +42,10 @@ class LiveView:
         options = {"control_hz": float(cfg.fps), "episode_s": float(env.config.episode_s)}
         if env.config.base_position:  # a free wrist: the view frames the workspace's bounds
             options["base_position"] = True
+        # beside episodes in the real-time class, the view need not yield to the loop (recorder/view/process.py)
+        beside_realtime = not cfg.is_fast and spec.kind != "none" and precedence.available()[0]
         self.view = open_view(spec, cfg.task, cfg.robot, layout_of(env), options, on_event=control.request, say=say,
-                              hand_size=hand_size)  # fmt: skip
+                              hand_size=hand_size, beside_realtime=beside_realtime)  # fmt: skip
         if self.view is not None:
             self.view.wait_ready()
         self.saved, self.successes = 0, 0
@@ -112,7 +115,7 @@ class LiveView:
         if now - self._status_at >= STATUS_S:
             self._status_at = now
             self._glove = self._health(stats)
-        status.update(late_ms=self._late_ms, seed=self.seed, task=self.task_text, episodes=self.cfg.episodes,
+        status.update(late_ms=self._late_ms, period_ms=1e3 / self.cfg.fps, seed=self.seed, task=self.task_text, episodes=self.cfg.episodes,
                       saved=self.saved, successes=self.successes, glove=self._glove)  # fmt: skip
         if self.wrist is not None:
             status["wrist"] = self.wrist

@@ -34,7 +34,8 @@ class ViewConfig(SessionConfig):
         "native (MuJoCo's viewer), web[:PORT] (a page on 127.0.0.1), rerun[:MODE], none (default: native with a "
         "display; none with --video)"
     )
-    video: str | None = setting(None, "also render to this video (with no --view: instead of one)", metavar="FILE.mp4")
+    video: str | None = setting(None, "also film the view: into FILE.mp4, or into this folder as view-TIME.mp4 (with "
+                                "no --view: instead of one)", metavar="FILE.mp4|DIR")  # fmt: skip
     duration: Annotated[float, Positive] | None = setting(
         None, "seconds (default: until Ctrl-C; 10 s for a video from the emulator)", metavar="S"
     )

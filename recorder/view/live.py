@@ -34,6 +34,7 @@ import mujoco
 
 from recorder import GloverecError
 from recorder.hand.profile import wearer_profile
+from recorder.paths import video_file
 from recorder.rig.rig import Rig
 from recorder.view import wrist as wrist_view
 from recorder.view.config import ViewConfig
@@ -92,9 +93,10 @@ def _view(cfg: ViewConfig, rig: Rig, view, duration, overrides) -> None:
         if glove.latest(wait_s=FIRST_POSE_S) is None:
             raise GloverecError(f"no hand pose from {cfg.glove} in {FIRST_POSE_S:.0f} s: is it a glove, sending?")
         session = _Session(rig, shown, lock, requests, cfg, overrides)
-        steps = session.run(duration, cfg.video)
-        if cfg.video:
-            print(f"view: {steps} frames of {cfg.robot} ({cfg.task}) to {cfg.video}, {glove.frames} glove frames"
+        video = video_file(cfg.video, time.strftime("view-%Y%m%d-%H%M%S.mp4")) if cfg.video else None
+        steps = session.run(duration, video and str(video))
+        if video:
+            print(f"view: {steps} frames of {cfg.robot} ({cfg.task}) to {video}, {glove.frames} glove frames"
                   + (f", wrist tracked {session.tracked_share:.0%}" if rig.wrist is not None else ""))  # fmt: skip
     finally:
         if shown is not None:

@@ -1,6 +1,7 @@
 """How fast a view draws: up to its frame rate while the command keeps time, backing off (down to MIN_FPS) when
-the command reports late ticks. A view in the idle scheduling class takes no CPU the command needs, but what it
-feeds does (the X server of a native window, the browser showing the web page): drawing less then leaves more.
+the command reports late ticks (``late_ms``, against ``period_ms``). A view in the idle scheduling class takes no
+CPU the command needs, but what it feeds does (the X server of a native window, the browser showing the web page):
+drawing less then leaves more.
 ``note`` is the line that tells the person when the view draws less than it would, and why."""
 
 from __future__ import annotations
@@ -9,7 +10,9 @@ import time
 from collections import deque
 
 MIN_FPS = 4.0
-LATE_MS = 1.0  # a loop tick this late (ms) in the command's last ticks: back off
+LATE_MS = 1.0  # a loop tick this late (ms) in the command's last ticks: back off ...
+LATE_SHARE = 0.1  # ... or this share of its frame period, when the status gives it (``period_ms``): at 30 fps a
+# tick 2-3 ms late (what a loaded machine gives even in the real-time class) is harmless, at 100 fps it is not
 SLOW = 0.6  # drawn at under this share of the frame rate: say so
 WINDOW_S = 2.0  # the drawn rate is counted over this many seconds
 
@@ -28,7 +31,8 @@ class Pace:
         self._drawn.append(now)
         while self._drawn and self._drawn[0] < now - WINDOW_S:
             self._drawn.popleft()
-        self.backed_off = float(status.get("late_ms") or 0.0) > LATE_MS
+        late = max(LATE_MS, LATE_SHARE * float(status.get("period_ms") or 0.0))
+        self.backed_off = float(status.get("late_ms") or 0.0) > late
         if self.backed_off:
             self.fps = max(MIN_FPS, self.fps / 2.0)
         else:

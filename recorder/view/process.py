@@ -87,11 +87,13 @@ def default_view() -> tuple[str, str | None]:
     return "none", "no live view (no display or no terminal): pass --view web for one in a browser"
 
 
-def priority() -> str:
-    """The view's scheduling priority, from $GLOVEREC_VIEW_PRIORITY: ``idle`` (the default: the view takes only
-    the CPU the command leaves, and on a saturated machine draws nothing) or ``normal`` (it competes with the
-    command for the CPU, at the recording's expense: for a demo machine where the view must keep up)."""
-    value = os.environ.get(PRIORITY_ENV, "").strip().lower() or "idle"
+def priority(beside_realtime: bool = False) -> str:
+    """The view's scheduling priority, from $GLOVEREC_VIEW_PRIORITY: ``idle`` (the view takes only the CPU the
+    command leaves, and on a saturated machine draws nothing) or ``normal`` (it competes for the CPU like the
+    command's other processes). By default ``normal`` beside a recording whose episodes run in the real-time class
+    (``beside_realtime``: recorder/record/precedence.py; the loop then needs no yielding view, and an idle one
+    drew 0 frames/s with both cores busy), else ``idle``."""
+    value = os.environ.get(PRIORITY_ENV, "").strip().lower() or ("normal" if beside_realtime else "idle")
     if value not in PRIORITIES:
         raise ConfigError(f"${PRIORITY_ENV}={os.environ[PRIORITY_ENV]!r}: valid: {', '.join(PRIORITIES)}")
     return value
@@ -120,14 +122,15 @@ class View:
     view's keys and buttons: next, rerecord, reset, stop; ``say(line)`` for what the operator should read
     (where the page is, a view that failed)."""
 
-    def __init__(self, spec: ViewSpec, stage: dict, layout: Layout, on_event=None, say=None):
+    def __init__(self, spec: ViewSpec, stage: dict, layout: Layout, on_event=None, say=None, beside_realtime=False):
         self.spec = spec
         self.shared = SharedFrame.create(layout)
         ctx = mp.get_context("spawn")  # a fresh interpreter: the command's threads and locks are not copied
         self._conn, child = ctx.Pipe()
         self._closing = ctx.Event()
         self._proc = ctx.Process(
-            target=_main, args=(spec, stage, self.shared.path, layout, child, self._closing), name="gloverec-view",
+            target=_main, args=(spec, stage, self.shared.path, layout, child, self._closing, beside_realtime),
+            name="gloverec-view",
             daemon=True,
         )  # fmt: skip
         self._proc.start()
@@ -175,9 +178,11 @@ class View:
 
 
 def open_view(spec: ViewSpec | str, task: str, robot: str, layout: Layout, options: dict | None = None,
-              hide_robot: bool = False, on_event=None, say=None, hand_size=None) -> View | None:  # fmt: skip
+              hide_robot: bool = False, on_event=None, say=None, hand_size=None,
+              beside_realtime: bool = False) -> View | None:  # fmt: skip
     """The view ``spec`` names for a scene of ``task`` on ``robot`` (None for ``none``); checked first.
-    ``hand_size``: the wearer's HandSize, for the human hand (default: the reference hand)."""
+    ``hand_size``: the wearer's HandSize, for the human hand (default: the reference hand). ``beside_realtime``:
+    the command's loop runs in the real-time class (the view's default priority: ``priority``)."""
     spec = spec if isinstance(spec, ViewSpec) else ViewSpec.parse(spec)
     if spec.kind == "none":
         return None
@@ -185,12 +190,12 @@ def open_view(spec: ViewSpec | str, task: str, robot: str, layout: Layout, optio
     stage = {"task": task, "robot": robot, "options": dict(options or {}), "hide_robot": hide_robot}
     if hand_size is not None:
         stage["hand_size"] = hand_size
-    return View(spec, stage, layout, on_event, say)
+    return View(spec, stage, layout, on_event, say, beside_realtime)
 
 
-def _main(spec: ViewSpec, stage_args: dict, path: str, layout: Layout, conn, closing) -> None:
+def _main(spec: ViewSpec, stage_args: dict, path: str, layout: Layout, conn, closing, beside_realtime) -> None:
     """The view process."""
-    _step_aside()
+    _step_aside(beside_realtime)
     from recorder.view.scene import Stage  # the view process's own imports (mujoco, the task)
 
     def send(kind: str, value) -> None:
@@ -226,14 +231,14 @@ def _main(spec: ViewSpec, stage_args: dict, path: str, layout: Layout, conn, clo
         conn.close()
 
 
-def _step_aside() -> None:
+def _step_aside(beside_realtime: bool = False) -> None:
     """Take only the CPU the command leaves: the idle scheduling class where Linux has it (the process runs only
     when a core would otherwise idle), else a lower priority; and one software-rendering thread (Mesa's llvmpipe
-    starts one per core, which would compete with the command on every core). With $GLOVEREC_VIEW_PRIORITY=normal
+    starts one per core, which would compete with the command on every core). At ``normal`` priority (``priority``)
     the process keeps the command's priority (still one rendering thread)."""
     os.environ.setdefault("LP_NUM_THREADS", "1")
     try:
-        if priority() == "normal":
+        if priority(beside_realtime) == "normal":
             return
     except ConfigError:
         pass  # the command checked it before starting the view: idle, as by default

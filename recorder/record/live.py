@@ -115,8 +115,9 @@ class LiveView:
         if now - self._status_at >= STATUS_S:
             self._status_at = now
             self._glove = self._health(stats)
-        status.update(late_ms=self._late_ms, period_ms=1e3 / self.cfg.fps, seed=self.seed, task=self.task_text, episodes=self.cfg.episodes,
-                      saved=self.saved, successes=self.successes, glove=self._glove)  # fmt: skip
+        status.update(late_ms=self._late_ms, period_ms=1e3 / self.cfg.fps, seed=self.seed, task=self.task_text,
+                      episodes=self.cfg.episodes, saved=self.saved, successes=self.successes,
+                      glove=self._glove)  # fmt: skip
         if self.wrist is not None:
             status["wrist"] = self.wrist
         if self.control is not None:

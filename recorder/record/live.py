@@ -43,7 +43,7 @@ class LiveView:
         if env.config.base_position:  # a free wrist: the view frames the workspace's bounds
             options["base_position"] = True
         # beside episodes in the real-time class, the view need not yield to the loop (recorder/view/process.py)
-        beside_realtime = not cfg.is_fast and spec.kind != "none" and precedence.available()[0]
+        beside_realtime = spec.kind != "none" and not cfg.is_fast and precedence.available()[0]
         self.view = open_view(spec, cfg.task, cfg.robot, layout_of(env), options, on_event=control.request, say=say,
                               hand_size=hand_size, beside_realtime=beside_realtime)  # fmt: skip
         if self.view is not None:

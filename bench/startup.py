@@ -98,63 +98,17 @@ def main() -> None:
     (tmp / "hub").mkdir()
     record = ["record", "--glove", "emulator", "--robot", "glovehand", "--task", "pose", "--episodes", "1",
               "--realtime", "--reset-time-s", "0", "--repo-id", "bench/startup", "--no-log"]  # fmt: skip
+
+    def bad_record(root: str, *flags: str) -> list[str]:
+        """A recording that must fail at once: ``flags`` replace the emulated glove or add what is wrong."""
+        return [*record, "--root", str(tmp / root), "--view", "none", *flags]
+
     errors = {
-        "record_missing_port": [
-            "record",
-            "--glove",
-            "serial:/dev/nonexistent",
-            "--robot",
-            "glovehand",
-            "--task",
-            "pose",
-            "--repo-id",
-            "bench/startup",
-            "--root",
-            str(tmp / "ds_port"),
-            "--view",
-            "none",
-        ],  # fmt: skip
-        "record_missing_log": [
-            "record",
-            "--glove",
-            f"mcap:{tmp}/missing.mcap",
-            "--robot",
-            "glovehand",
-            "--task",
-            "pose",
-            "--repo-id",
-            "bench/startup",
-            "--root",
-            str(tmp / "ds_log"),
-            "--view",
-            "none",
-        ],  # fmt: skip
-        "record_missing_policy": [
-            *record[:-1],
-            "--root",
-            str(tmp / "ds_policy"),
-            "--view",
-            "none",
-            "--policy",
-            str(tmp / "missing_policy"),
-        ],  # fmt: skip
-        "record_not_a_policy": [
-            *record[:-1],
-            "--root",
-            str(tmp / "ds_policy"),
-            "--view",
-            "none",
-            "--policy",
-            str(tmp / "not_a_policy"),
-        ],  # fmt: skip
-        "record_resume_not_a_recording": [
-            *record,
-            "--root",
-            str(tmp / "not_a_dataset"),
-            "--view",
-            "none",
-            "--resume",
-        ],  # fmt: skip
+        "record_missing_port": bad_record("ds_port", "--glove", "serial:/dev/nonexistent"),
+        "record_missing_log": bad_record("ds_log", "--glove", f"mcap:{tmp}/missing.mcap"),
+        "record_missing_policy": bad_record("ds_policy", "--policy", str(tmp / "missing_policy")),
+        "record_not_a_policy": bad_record("ds_policy", "--policy", str(tmp / "not_a_policy")),
+        "record_resume_not_a_recording": [*record, "--root", str(tmp / "not_a_dataset"), "--view", "none", "--resume"],
         "eval_missing_policy": ["eval", "--policy", str(tmp / "missing_policy"), "--episodes", "1"],
         "eval_not_a_policy": ["eval", "--policy", str(tmp / "not_a_policy"), "--episodes", "1"],
         "train_not_a_dataset": [

@@ -49,6 +49,7 @@ from policies.checkpoint import BASELINES as BASELINE_NAMES, find_pretrained
 from policies.data import dataset_info, recorded_with, sidecar
 from recorder import GloverecError
 from recorder.demonstrator import make_demonstrator
+from recorder.lerobot_names import gloverec_names
 from recorder.paths import video_file
 from recorder.plugins import PLUGINS_ENV, load_plugins
 from recorder.retarget import Retargeter
@@ -168,10 +169,12 @@ BASELINES = dict(zip(BASELINE_NAMES, (DemonstratorAgent, RandomAgent, FistAgent)
 
 def policy_context(pretrained: Path) -> dict:
     """What the checkpoint says about its training data: fps, robot, task and feature names. From our
-    gloverec.json, else from lerobot-train's train_config.json -> the dataset's info.json and sidecar."""
+    gloverec.json, else from lerobot-train's train_config.json -> the dataset's info.json and sidecar. Names in the
+    tasks' naming, whichever a gloverec_sim dataset was recorded with (recorder/lerobot_names.py)."""
     ours = pretrained / "gloverec.json"
     if ours.is_file():
-        return json.loads(ours.read_text())
+        ctx = json.loads(ours.read_text())
+        return {**ctx, "names": gloverec_names(ctx.get("names") or {})}
     ctx: dict = {"fps": None, "robot": None, "task": None, "names": {}}
     try:
         ds = json.loads((pretrained / "train_config.json").read_text())["dataset"]
@@ -186,7 +189,7 @@ def policy_context(pretrained: Path) -> dict:
             robot=info.get("robot_type") or first.get("robot"),
             task=first.get("env_task"),
             dataset={"repo_id": ds.get("repo_id"), "root": str(root)},
-            names={k: v.get("names") for k, v in info.get("features", {}).items()},
+            names=gloverec_names({k: v.get("names") for k, v in info.get("features", {}).items()}),
         )
     return ctx
 

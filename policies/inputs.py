@@ -8,10 +8,13 @@
 
 The default is what a deployed robot has: state, images and task, of those the dataset carries. The split of
 observation.state goes by element name: a robot's own elements are its joints' ``*.pos`` / ``*.vel`` and the
-palm's ``palm.*`` (envs/tasks/base.py state_names); every other element is the task's.
+palm's ``palm.*`` (envs/tasks/base.py state_names); every other element is the task's. A gloverec_sim dataset's
+names are read in the tasks' naming first (``goal.x.pos`` is the task's ``goal.x``: recorder/lerobot_names.py).
 """
 
 from __future__ import annotations
+
+from recorder.lerobot_names import gloverec_state_name
 
 NAMES = ("state", "environment", "images", "task")
 ROBOT = ("state", "images", "task")  # what a deployed robot has: the default
@@ -52,6 +55,7 @@ def task_instructions(root) -> list[str]:
 
 def is_robot_state(name: str) -> bool:
     """An element of observation.state the robot measures itself (not a task value stored beside it)."""
+    name = gloverec_state_name(name)
     return name.startswith("palm.") or name.endswith((".pos", ".vel"))
 
 

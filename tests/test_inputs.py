@@ -9,7 +9,8 @@ from lerobot.configs.types import FeatureType, PolicyFeature
 from policies import inputs
 from policies.bc import BCConfig, BCPolicy
 
-STATE = ["index_pip.pos", "index_pip.vel", "palm.qw", "goal.index_pip", "object.x"]  # gloverec_sim's layout
+STATE = ["index_pip.pos", "index_pip.vel", "palm.qw", "goal.index_pip", "object.x"]  # gloverec_sim's layout, before
+NAMED = ["index_pip.pos", "index_pip.vel", "palm.qw.pos", "goal.index_pip.pos", "object.x.pos"]  # and now
 
 
 def test_names_parse_and_unknown_ones_are_refused():
@@ -21,9 +22,10 @@ def test_names_parse_and_unknown_ones_are_refused():
         inputs.parse(" , ")
 
 
-def test_the_task_values_inside_the_state_are_environment_state():
-    assert inputs.state_indices(STATE, ("state",)) == [0, 1, 2]
-    assert inputs.state_indices(STATE, ("environment",)) == [3, 4]
+@pytest.mark.parametrize("names", [STATE, NAMED], ids=["before", "named"])
+def test_the_task_values_inside_the_state_are_environment_state(names):
+    assert inputs.state_indices(names, ("state",)) == [0, 1, 2]
+    assert inputs.state_indices(names, ("environment",)) == [3, 4]
     assert inputs.state_indices(STATE, ("state", "environment")) is None  # all of it
     features = {"observation.state": {"names": STATE}, "observation.images.top": {}}
     assert inputs.missing(("state", "environment", "images.top", "task"), features) == []

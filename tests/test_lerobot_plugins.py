@@ -20,6 +20,7 @@ import envs
 from conftest import EmulatorProcess, cli, wait_for
 from recorder.config import ConfigError
 from recorder.hand.gestures import GESTURES
+from recorder.lerobot_names import gloverec_names
 from recorder.retarget.motor_map import load_motor_map
 
 pytestmark = pytest.mark.xdist_group("lerobot.md")  # with the docs block whose outputs these tests read
@@ -43,8 +44,9 @@ def test_lerobot_record_with_the_glove_and_the_sim_makes_a_plain_lerobot_dataset
     ds = LeRobotDataset("me/glove_pose", root=recorded)
     env = envs.make("pose", "glovehand", state_includes_task=True).unwrapped
     assert ds.num_episodes == 2 and ds.meta.robot_type == "gloverec_sim:pose:glovehand" and ds.fps == 30
-    assert ds.meta.features["action"]["names"] == list(env.action_names)
-    assert ds.meta.features["observation.state"]["names"] == list(env.state_names)
+    names = {k: ds.meta.features[k]["names"] for k in ("action", "observation.state")}
+    assert all(n.endswith(".pos") for n in names["action"])  # what lerobot-rollout passes (recorder/lerobot_names.py)
+    assert gloverec_names(names) == {"action": list(env.action_names), "observation.state": list(env.state_names)}
     assert any(n.startswith("goal.") for n in env.state_names)  # the task's state rides in observation.state
     assert not (recorded / "meta" / "gloverec").exists()  # a plain LeRobot dataset: no sidecar of ours
     actions = np.stack([ds[i]["action"].numpy() for i in range(0, len(ds), 10)])
@@ -66,6 +68,40 @@ def test_lerobot_train_takes_a_lerobot_record_dataset(lerobot_run):
     ).is_file()
 
 
+def test_lerobot_rollout_runs_the_policy_and_records_as_lerobot_does(lerobot_run, recorded):
+    """docs/lerobot.md's `lerobot-rollout --strategy.type=base` ran the lerobot-train policy on gloverec_sim for its
+    duration (tests/test_docs.py), and `--strategy.type=episodic` recorded its episodes: a LeRobot dataset with
+    lerobot-record's features, all of pose's state passed to the policy."""
+    ds = LeRobotDataset(
+        "me/rollout_glove_pose", root=lerobot_run / "datasets" / "recordings" / "me" / "rollout_glove_pose"
+    )
+    recorded_features = LeRobotDataset("me/glove_pose", root=recorded).meta.features
+    assert ds.num_episodes == 2 and ds.meta.robot_type == "gloverec_sim:pose:glovehand" and len(ds) > 20
+    for key in ("action", "observation.state"):
+        assert ds.meta.features[key] == recorded_features[key]
+    assert all(n.endswith((".pos", ".vel")) for n in ds.meta.features["observation.state"]["names"])
+
+
+def test_every_sim_value_keeps_its_meaning_and_old_names_read_back():
+    """gloverec_sim names a value ``.pos`` only where it is a position (lerobot-rollout passes those): every pose
+    value, not an object's size or a flag; a dataset's names in either naming read back as the task's; an action
+    in the old names (lerobot-replay of an older dataset) still drives the hand."""
+    sim = GloverecSim(GloverecSimConfig(robot="glovehand", task="grasp"))
+    u = sim.unwrapped
+    kept = [n for n in sim.observation_features if not n.endswith((".pos", ".vel"))]
+    assert kept == ["object.hx", "object.hy", "object.hz", "object.is_box", "object.is_cylinder", "object.is_sphere"]
+    assert "object.qw.pos" in sim.observation_features and "palm.x.pos" in sim.observation_features
+    named = {"observation.state": list(sim.observation_features), "action": list(sim.action_features)}
+    ours = {"observation.state": list(u.state_names), "action": list(u.action_names)}
+    assert gloverec_names(named) == ours and gloverec_names(ours) == ours
+    sim.connect()
+    try:
+        applied = sim.send_action({n: 0.0 for n in u.action_names})
+        assert list(applied) == list(sim.action_features)
+    finally:
+        sim.disconnect()
+
+
 def test_a_teleoperator_for_another_robot_is_refused_in_one_line():
     """What lerobot-teleoperate --teleop.robot=shadow with --robot.robot=glovehand meets: gloverec_sim refuses the
     first action, naming what it lacks."""
@@ -77,7 +113,7 @@ def test_a_teleoperator_for_another_robot_is_refused_in_one_line():
             sim.send_action({name: 0.0 for name in teleop.action_features})
     finally:
         sim.disconnect()
-    assert "gloverec_sim drives glovehand, but the action has no 'thumb_cmc_flex'" in str(info.value)
+    assert "gloverec_sim drives glovehand, but the action has no 'thumb_cmc_flex.pos'" in str(info.value)
     assert "\n" not in str(info.value)
 
 
@@ -227,12 +263,14 @@ def test_the_sim_runs_each_dexterous_task_from_the_glove_teleoperator(task):
     sim = GloverecSim(GloverecSimConfig(robot="glovehand", task=task, seed=1))
     teleop = GloverecGlove(GloverecGloveConfig(port="emulator", robot="glovehand"))
     names = envs.make(task, "glovehand").unwrapped
-    assert list(sim.action_features) == list(names.action_names)
-    assert ("base.rz" in sim.action_features) == (task != "keys")
+    assert [n.removesuffix(".pos") for n in sim.action_features] == list(names.action_names)
+    assert ("base.rz.pos" in sim.action_features) == (task != "keys")
     sim.connect()
     try:
         obs = sim.get_observation()
-        assert set(names.environment_state_names) <= set(obs)
+        assert set(names.environment_state_names) <= set(
+            gloverec_names({"observation.state": list(obs)})["observation.state"]
+        )
         action = {name: 0.0 for name in teleop.action_features}
         applied = sim.send_action(action)
         assert list(applied) == list(sim.action_features)

@@ -11,6 +11,7 @@ import numpy as np
 
 from recorder import GloverecError, loading
 from recorder.dataset_check import check_dataset
+from recorder.lerobot_names import gloverec_action_name, gloverec_names
 from recorder.record.config import REPO_ID
 from recorder.record.sidecar import SIDECAR, carry_sidecar, episode_notes, read_sidecar
 from recorder.video_backend import video_backend
@@ -62,7 +63,8 @@ def episodes_table(meta) -> list[dict]:
 
 
 def action_state_pairs(action_names, state_names, robot: str | None) -> list[tuple[int, int]]:
-    """(action column, state column) of each actuator and the joint it drives."""
+    """(action column, state column) of each actuator and the joint it drives (action names in either naming:
+    recorder/lerobot_names.py)."""
     joints = None
     if robot:
         try:
@@ -74,7 +76,7 @@ def action_state_pairs(action_names, state_names, robot: str | None) -> list[tup
             joints = None
     pairs = []
     for a, name in enumerate(action_names):
-        joint = joints[a] if joints is not None and a < len(joints) else name
+        joint = joints[a] if joints is not None and a < len(joints) else gloverec_action_name(name)
         if f"{joint}.pos" in state_names:
             pairs.append((a, state_names.index(f"{joint}.pos")))
     return pairs
@@ -116,8 +118,8 @@ def plot_episode(meta, episode: int, out: Path) -> Path:
     data = ds.hf_dataset.with_format("numpy")
     action, state = np.stack(data["action"]), np.stack(data["observation.state"])
     t = np.asarray(data["timestamp"])
-    a_names = meta.features["action"]["names"]
-    s_names = meta.features["observation.state"]["names"]
+    names = gloverec_names({k: meta.features[k]["names"] for k in ("action", "observation.state")})
+    a_names, s_names = names["action"], names["observation.state"]
     pairs = action_state_pairs(a_names, s_names, meta.robot_type)
     if not pairs:
         raise GloverecError("cannot pair actions with joint states in this dataset")

@@ -3,7 +3,8 @@
 Every `send_action` steps the task once (lerobot-record paces the calls at its fps, which should equal the robot's
 ``fps``). Observations in LeRobot's layout: every float is its own key, so lerobot-record puts the hand's joint
 state, its palm pose and the task's state (the goal's joint positions, or the object's pose) together into
-``observation.state`` (the task built with ``state_includes_task``); cameras are ``(H, W, 3)`` images.
+``observation.state`` (the task built with ``state_includes_task``); cameras are ``(H, W, 3)`` images. Keys end in
+``.pos`` where the element is a position, so lerobot-rollout passes them (recorder/lerobot_names.py).
 lerobot-record never resets a robot between episodes, so this one resets its scene itself when the task ends
 (the gesture held, the object dropped, or the task's time limit), with the next seed, and logs it.
 """
@@ -20,6 +21,7 @@ from lerobot.utils.errors import DeviceAlreadyConnectedError, DeviceNotConnected
 import envs
 from lerobot_robot_gloverec.config_gloverec_sim import GloverecSimConfig
 from recorder.config import ConfigError
+from recorder.lerobot_names import lerobot_action_name, lerobot_state_name
 from recorder.speech import warn_if_prompts_will_fail
 
 logger = logging.getLogger(__name__)
@@ -54,17 +56,19 @@ class GloverecSim(Robot):
         self.cameras = dict(config.cameras)  # lerobot-record sizes its image writer by len(robot.cameras)
         self.seed = config.seed
         self.episodes = 0  # scenes finished since connect
+        self.state_keys = [lerobot_state_name(n) for n in self.unwrapped.state_names]
+        self.action_keys = [lerobot_action_name(n) for n in self.unwrapped.action_names]
         self._obs: dict | None = None
 
     # ------------------------------------------------------------ features
     @cached_property
     def observation_features(self) -> dict:
         h, w = self.unwrapped.config.image_size
-        return {**{name: float for name in self.unwrapped.state_names}, **{cam: (h, w, 3) for cam in self.cameras}}
+        return {**{name: float for name in self.state_keys}, **{cam: (h, w, 3) for cam in self.cameras}}
 
     @cached_property
     def action_features(self) -> dict:
-        return {name: float for name in self.unwrapped.action_names}
+        return {name: float for name in self.action_keys}
 
     # ------------------------------------------------------------ lifecycle
     @property
@@ -98,17 +102,20 @@ class GloverecSim(Robot):
     def get_observation(self) -> dict:
         if not self.is_connected:
             raise DeviceNotConnectedError(f"{self} is not connected")
-        obs = dict(zip(self.unwrapped.state_names, self._obs["observation.state"].tolist()))
+        obs = dict(zip(self.state_keys, self._obs["observation.state"].tolist()))
         for cam in self.cameras:
             obs[cam] = self._obs[f"observation.images.{cam}"]
         return obs
 
     def send_action(self, action: dict) -> dict:
-        """Step the task with ``action`` (the robot's action keys; another robot's are refused in one line);
-        returns the action as applied (clipped to the action space)."""
+        """Step the task with ``action`` (the robot's action keys, or the plain actuator names of a dataset recorded
+        before them, as lerobot-replay sends; another robot's are refused in one line); returns the action as
+        applied (clipped to the action space)."""
         if not self.is_connected:
             raise DeviceNotConnectedError(f"{self} is not connected")
-        names = self.unwrapped.action_names
+        keys = self.action_keys
+        old = action.keys() >= set(self.unwrapped.action_names) and not action.keys() & set(keys)
+        names = self.unwrapped.action_names if old else keys
         missing = [n for n in names if n not in action]
         if missing:
             raise ConfigError(
@@ -121,7 +128,7 @@ class GloverecSim(Robot):
             ended = "object dropped"
         if ended is not None:
             self._next_scene(ended, bool(info["is_success"]))
-        return dict(zip(names, info["applied_action"].tolist()))
+        return dict(zip(keys, info["applied_action"].tolist()))
 
     def __str__(self) -> str:
         return f"gloverec_sim({self.config.task} on {self.config.robot})"

@@ -27,6 +27,7 @@ from recorder.config import ConfigError
 from recorder.glove.config import GloveConfig
 from recorder.glove.glove import Glove
 from recorder.hand.pose import HandPose
+from recorder.lerobot_names import lerobot_action_name
 from recorder.paths import calibration_dir
 from recorder.retarget import Retargeter
 from recorder.retarget.motor_map import MotorMap, load_motor_map, motor_map_names
@@ -45,7 +46,7 @@ class _RobotHand:
 
     def __init__(self, retarget: Retargeter):
         self.retarget = retarget
-        self.names = action_names(self.retarget.robot, base_rotation=True)
+        self.names = [lerobot_action_name(n) for n in action_names(self.retarget.robot, base_rotation=True)]
 
     def __call__(self, pose: HandPose) -> dict[str, float]:
         action, _ = self.retarget(pose.angles, pose.palm)

@@ -86,6 +86,21 @@ def test_lerobot_train_trains_gloverec_bc_through_the_plugin_and_gloverec_evalua
     assert 0.0 <= result["success_rate"] <= 1.0
 
 
+@pytest.mark.xdist_group("lerobot.md")  # with the docs block it reads
+def test_the_documented_two_process_launch_trains_on_two_processes(docs_run):
+    """docs/lerobot.md's multi-process block, run as written (tests/test_docs.py: `accelerate launch --multi_gpu
+    --num_processes=2 lerobot-train` for 50 steps on two recorded episodes, then `gloverec eval` of its checkpoint):
+    two processes trained it, not one (`accelerate launch --cpu` runs one, silently)."""
+    from docs_runner import ROOT, run_blocks_of
+
+    blocks = run_blocks_of(ROOT / "docs" / "lerobot.md")
+    index = next(k for k, b in enumerate(blocks) if "accelerate launch" in b.text)
+    last = docs_run("lerobot.md", index) / "lr_bc_2proc" / "checkpoints" / "last"
+    step = json.loads((last / "training_state" / "training_step.json").read_text())
+    assert (step["num_processes"], step["batch_size"], step["step"]) == (2, 32, 50)
+    assert json.loads((last / "pretrained_model" / "config.json").read_text())["type"] == "gloverec_bc"
+
+
 def test_lerobot_plugin_discovery_is_what_registers_the_policy(tmp_path):
     """The control: in a fresh interpreter LeRobot does not know gloverec_bc until its plugin discovery
     (register_third_party_plugins, what lerobot-train runs first) imports the lerobot_policy_gloverec

@@ -52,6 +52,11 @@ def test_observations_reach_the_policy_under_the_dataset_keys():
             _, _, terminated, truncated, _ = vec.step(np.zeros((2, *vec.single_action_space.shape), np.float32))
             ends.append(terminated | truncated)
         assert np.array(ends)[29].all() and not np.array(ends)[:29].any()
+        # an ended episode is filmed as its last frame (LeRobot films a batch until its last episode ends)
+        first = vec.envs[0].render()
+        assert first.shape == (48, 64, 3) and vec.envs[0].render() is first
+        vec.reset(seed=[SEED, SEED + 1], options={NEW_ROLLOUT_OPTION: True})
+        assert vec.envs[0].render() is not first
     finally:
         vec.close()
 

@@ -47,6 +47,27 @@ class LeRobotLayout(gym.ObservationWrapper):
         self.metadata = {**env.metadata, "render_fps": int(hz) if float(hz).is_integer() else hz}
         # the task truncates once t = steps / control_hz reaches episode_s (envs/tasks/base.py)
         self._max_episode_steps = int(np.ceil(cfg.episode_s * cfg.control_hz - 1e-9))
+        self._ended = False
+        self._end_frame = None
+
+    def reset(self, **kwargs):
+        self._ended, self._end_frame = False, None
+        return super().reset(**kwargs)
+
+    def step(self, action):
+        obs, reward, terminated, truncated, info = super().step(action)
+        self._ended = terminated or truncated
+        return obs, reward, terminated, truncated, info
+
+    def render(self):
+        # lerobot-eval films every environment of a batch until the batch's last episode ends: an ended episode's
+        # scene no longer changes, so its last frame stands for the rest (rendering is most of a filmed step's cost)
+        if self._end_frame is not None:
+            return self._end_frame
+        frame = self.env.render()
+        if self._ended:
+            self._end_frame = frame
+        return frame
 
     def observation(self, obs: dict) -> dict:
         out = {"agent_pos": obs["observation.state"]}

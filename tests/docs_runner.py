@@ -17,6 +17,7 @@ FENCE = re.compile(r"^```(?P<info>.*)$")
 CAPS = {  # flag -> the most the test runs (fewer and shorter; see the module docstring)
     "--episodes": 2,
     "--dataset.num_episodes": 2,
+    "--eval.n_episodes": 2,
     "--steps": 50,
     "--duration": 2,
     "--dataset.episode_time_s": 3,

@@ -15,8 +15,8 @@ with the document's write= blocks before it written there, HF_HUB_OFFLINE=1 and 
 substitutions, so a user's command and the tested one stay the same:
 - folders and ports: /tmp/... -> the working folder (/tmp/glove: its glove link), /dev/ttyACM0 -> an emulated glove
   started for the block on a pseudo-terminal in the working folder;
-- fewer and shorter: --episodes and --dataset.num_episodes at most 2, --steps at most 50, --duration at most 2 s,
-  lerobot-record's --dataset.episode_time_s at most 3 s and --dataset.reset_time_s at most 1 s,
+- fewer and shorter: --episodes, --dataset.num_episodes and --eval.n_episodes at most 2, --steps at most 50,
+  --duration at most 2 s, lerobot-record's --dataset.episode_time_s at most 3 s and --dataset.reset_time_s at most 1 s,
   lerobot-teleoperate's --teleop_time_s at most 2 s.
 Each `gloverec` command runs through the test zygote's `gloverec` (tests/zygote.py: the same command in a process of
 its own, forked from one that has done the imports); lerobot-* and every other command start as they would for a

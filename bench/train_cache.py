@@ -26,28 +26,51 @@ from _common import write_results
 
 
 def child(where: str, root: str, steps: int, batch: int, out: str) -> None:
-    """One training run; prints {steps_per_s, peak_rss_mb}."""
+    """One training run; prints its steps per second, peak RSS and, at its end, anonymous and file-backed RSS."""
     import torch
 
     from policies import train as train_mod
     from policies.config import TrainConfig
-    from policies.data import resolve
+    from policies.data import FrameCache, resolve
 
     torch.set_num_threads(1)
-    timed = {}
-    loop = train_mod._loop
+    timed = {"save": 0.0}
+    loop, save = train_mod._loop, train_mod._save
 
     def timed_loop(*args, **kw):  # the steps only: not the decoding, not the policy's construction
         t = time.perf_counter()
         loop(*args, **kw)
-        timed["s"] = time.perf_counter() - t
+        timed["loop"] = time.perf_counter() - t
 
-    train_mod._loop = timed_loop
+    def timed_save(*args, **kw):  # nor the checkpoint (and its loss plot), the same for both caches
+        t = time.perf_counter()
+        save(*args, **kw)
+        timed["save"] += time.perf_counter() - t
+
+    assemble, batches = FrameCache.batch, []
+
+    def timed_batch(self, indices):  # assembling a batch: where the two caches differ
+        t = time.perf_counter()
+        out = assemble(self, indices)
+        batches.append(time.perf_counter() - t)
+        return out
+
+    train_mod._loop, train_mod._save, FrameCache.batch = timed_loop, timed_save, timed_batch
     cfg = TrainConfig.load(steps=steps, batch_size=batch, val_fraction=0.0, save_every=steps, frame_cache=where)
     train_mod.train(resolve(f"bench/{Path(root).name}", root=root), out, cfg, progress=False)
-    hwm = next(int(line.split()[1]) for line in Path("/proc/self/status").read_text().splitlines()
-               if line.startswith("VmHWM:"))  # fmt: skip
-    print(json.dumps({"steps_per_s": steps / timed["s"], "peak_rss_mb": round(hwm / 1024)}))
+    status = dict(line.split(":", 1) for line in Path("/proc/self/status").read_text().splitlines())
+    mb = {k: round(int(status[k].split()[0]) / 1024) for k in ("VmHWM", "RssAnon", "RssFile")}
+    print(
+        json.dumps(
+            {
+                "steps_per_s": steps / (timed["loop"] - timed["save"]),
+                "peak_rss_mb": mb["VmHWM"],
+                "end_anon_mb": mb["RssAnon"],
+                "end_file_mb": mb["RssFile"],
+                "batch_ms": round(1000 * statistics.median(batches), 2),
+            }
+        )
+    )
 
 
 def run(where: str, root: Path, steps: int, batch: int, tmp: Path) -> dict:
@@ -108,9 +131,12 @@ def main() -> None:
     for _ in range(args.pairs):
         for where in ("memory", "disk"):
             runs[where].append(run(where, args.small, s, b, args.tmp))
-    large = {where: run(where, args.large, s, b, args.tmp) for where in ("disk", "memory")}
+    large = {"disk": [], "memory": []}
+    for where in ("disk", "memory", "disk"):  # the memory run at 3x is the slow one: once
+        large[where].append(run(where, args.large, s, b, args.tmp))
     rate = {w: statistics.median(r["steps_per_s"] for r in runs[w]) for w in runs}
-    rss = {w: {"1x": statistics.median(r["peak_rss_mb"] for r in runs[w]), "3x": large[w]["peak_rss_mb"]} for w in runs}
+    rss = {w: {n: statistics.median(r["peak_rss_mb"] for r in rs[w]) for n, rs in (("1x", runs), ("3x", large))}
+           for w in runs}  # fmt: skip
     write_results(
         "train_cache",
         {
@@ -123,12 +149,14 @@ def main() -> None:
             "settings": {"steps": s, "batch_size": b, "pairs": args.pairs},
             "steps_per_s": {w: [round(r["steps_per_s"], 2) for r in runs[w]] for w in runs},
             "steps_per_s_median": {w: round(v, 2) for w, v in rate.items()},
+            "batch_ms_median": {w: statistics.median(r["batch_ms"] for r in runs[w]) for w in runs},
             "disk_over_memory": round(rate["disk"] / rate["memory"], 3),
             "peak_rss_mb": rss,
             "disk_rss_3x_over_1x": round(rss["disk"]["3x"] / rss["disk"]["1x"], 3),
             "memory_rss_3x_over_1x": round(rss["memory"]["3x"] / rss["memory"]["1x"], 3),
             "disk_cache_first_run_wall_s": built,  # a 1-step run: imports, policy, the build
-            "memory_run_wall_s": {"1x": [r["wall_s"] for r in runs["memory"]], "3x": large["memory"]["wall_s"]},
+            "memory_run_wall_s": {"1x": [r["wall_s"] for r in runs["memory"]], "3x": large["memory"][0]["wall_s"]},
+            "runs": {"1x": runs, "3x": large},
             "lerobot_per_item_s_per_batch": round(lerobot_batch_s(args.small, b), 2),
             "note": "a shared 2-core machine: other jobs ran alongside; memory and disk runs interleaved",
         },

@@ -106,39 +106,29 @@ class FrameCache:
         )
         keys = [action_from if k == "action" else k for k in keys]
         wanted = [k for k in (*keys, "action_is_pad") if k in ds.features or k == "action_is_pad"]
-        columns: dict[str, list] = {k: [] for k in wanted}
-        writer = diskcache.DiskWriter(folder) if folder is not None else None
+        writer = diskcache.DiskWriter(folder) if folder is not None else InMemory(len(ds))
         takeover = "intervention" in ds.features
         driver = []
-        try:
+        try:  # row by row into their place: no list of rows stacked at the end, which would double the peak
             for i in tqdm(range(len(ds)), desc=f"loading {len(episodes)} episode(s)", unit="frame",
                           disable=not progress, leave=False):  # fmt: skip
                 item = ds[i]
                 for k in wanted:
                     if k in item:
                         v = item[k]
-                        v = (v * 255).round().to(torch.uint8) if self._is_image(k, v) else v
-                        if writer is None:
-                            columns[k].append(v)
-                        else:  # row by row to disk: the decoded frames are never all in memory
-                            writer.add("action" if k == action_from else k, v)
+                        writer.add("action" if k == action_from else k, self._uint8(v) if self._is_image(k, v) else v)
                 driver.append((WEARER if bool(item["intervention"]) else POLICY) if takeover else PLAIN)
                 if "task" in keys:
                     self.tasks.append(item["task"])
         except BaseException:
-            if writer is not None:
-                writer.abandon()
+            writer.abandon()
             raise
-        self.driver = torch.tensor(driver, dtype=torch.uint8)
-        if writer is None:
-            self.data = {("action" if k == action_from else k): torch.stack(v) for k, v in columns.items() if v}
-            return
         names = {t: i for i, t in enumerate(sorted(set(self.tasks)))}
         extra = {"driver": driver, "task_names": list(names), "tasks": [names[t] for t in self.tasks]}
         self._adopt(writer.finish(extra), extra)
 
     def _adopt(self, columns: dict, extra: dict) -> None:
-        """A cache on disk's columns; who drove each frame and its instruction (small) in memory."""
+        """The columns (tensors, or a cache on disk's), who drove each frame and its instruction (small: in memory)."""
         self.data = columns
         self.driver = torch.tensor(extra["driver"], dtype=torch.uint8)
         self.tasks = [extra["task_names"][i] for i in extra["tasks"]]
@@ -166,6 +156,10 @@ class FrameCache:
         if not bool((w > 0).any()):
             raise GloverecError("no frames to train on: every frame was driven by the policy (pass --policy-frames)")
         return w
+
+    @staticmethod
+    def _uint8(image: torch.Tensor) -> torch.Tensor:
+        return (image * 255).round().to(torch.uint8)
 
     @staticmethod
     def _is_image(key: str, value) -> bool:
@@ -201,6 +195,29 @@ class FrameCache:
             s["std"] = np.maximum(s["std"], MIN_STD)
             out[k] = s
         return out
+
+
+class InMemory:
+    """FrameCache's columns in memory, filled a row at a time (the interface of diskcache.DiskWriter): each column a
+    tensor of all the rows, made at its first row."""
+
+    def __init__(self, rows: int):
+        self.rows = rows
+        self.columns: dict[str, torch.Tensor] = {}
+        self.filled: dict[str, int] = {}
+
+    def add(self, key: str, value: torch.Tensor) -> None:
+        if key not in self.columns:
+            self.columns[key] = torch.empty((self.rows, *value.shape), dtype=value.dtype)
+            self.filled[key] = 0
+        self.columns[key][self.filled[key]] = value
+        self.filled[key] += 1
+
+    def finish(self, extra: dict) -> dict[str, torch.Tensor]:
+        return {k: v[: self.filled[k]] for k, v in self.columns.items()}
+
+    def abandon(self) -> None:
+        self.columns.clear()
 
 
 def decoded_bytes(meta, episodes: list[int], keys: list[str], delta_timestamps: dict | None) -> int:

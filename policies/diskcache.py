@@ -22,6 +22,7 @@ import json
 import math
 import os
 import shutil
+import weakref
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -66,6 +67,7 @@ class DiskColumn:
         out = np.empty((len(idx), *self.row), dtype=self.dtype)
         if not self._fds:  # opened on first use, kept open: a batch is one preadv per row, no open/close
             self._fds = [os.open(p, os.O_RDONLY) for p, _ in self.parts]
+            weakref.finalize(self, _close, self._fds)
         part = np.searchsorted(self._starts, idx, side="right") - 1
         flat = out.reshape(len(idx), -1).view(np.uint8)
         for j, (i, p) in enumerate(zip(idx.tolist(), part.tolist())):
@@ -79,9 +81,10 @@ class DiskColumn:
     def join(cls, columns: list[DiskColumn]) -> DiskColumn:
         return cls(columns[0].dtype, columns[0].row, [p for c in columns for p in c.parts])
 
-    def __del__(self):
-        for fd in getattr(self, "_fds", []):
-            os.close(fd)
+
+def _close(fds: list[int]) -> None:
+    for fd in fds:
+        os.close(fd)
 
 
 def take(column, indices: torch.Tensor) -> torch.Tensor:

@@ -53,6 +53,12 @@ class TrainConfig:
         "(or images.CAMERA), task (the instruction) (default: state,images,task, what a deployed robot has, of "
         "those the dataset carries)",
     )
+    frame_cache: Literal["auto", "memory", "disk"] = setting(
+        "auto",
+        "where the decoded frames are kept while training: memory, or disk (a uint8 cache beside the dataset, built "
+        "on the first run, read a batch at a time); auto: disk when they would take more than half the memory "
+        "available",
+    )
     policy: dict = setting(default_factory=dict, help="fields of the policy's LeRobot config", cli=False)
 
     @classmethod

@@ -16,6 +16,8 @@ frames drawn together, a takeover recording's by who drove them (policies/data.p
 Normalisation statistics come from the training episodes only. ``learn_from`` intended: the action chunks learnt
 are the wearer's (``expert.action``: a DART recording's before its noise, a takeover recording's where the policy
 drove; recorder/record/dart.py), a plain demonstration's its executed ones.
+The frames are decoded once into a frame cache, in memory or, for a dataset bigger than memory, on disk beside it
+(``frame_cache``; policies/diskcache.py): the same batches either way.
 ``resume`` continues from checkpoints/last with the same split, weights, optimiser, scheduler and RNG state: N steps
 then N more equal 2N in one go.
 """
@@ -52,10 +54,10 @@ from lerobot.utils.constants import CHECKPOINTS_DIR, LAST_CHECKPOINT_LINK, PRETR
 from lerobot.utils.random_utils import set_seed
 from tqdm import tqdm
 
-from policies import inputs as named_inputs
+from policies import diskcache, inputs as named_inputs
 from policies.bc import POLICY_TYPE  # importing policies.bc registers gloverec_bc
 from policies.config import TrainConfig
-from policies.data import DatasetRef, FrameCache, load_meta, recorded_with, resolve, split_episodes
+from policies.data import DatasetRef, FrameCache, decoded_bytes, load_meta, recorded_with, resolve, split_episodes
 from recorder import GloverecError, one_line
 from recorder.plugins import load_plugins
 from recorder.record.dart import EXPERT_ACTION
@@ -179,11 +181,16 @@ def train(
     for a, _, _ in splits:
         _check_alike(meta, ref, metas[a], a, keys)
     _say(f"inputs: {describe_inputs(policy_obj.config)}")
+    sets = [(ref, train_eps, val_eps), *splits]
+    all_metas = {ref: meta, **metas}
+    needed = sum(decoded_bytes(all_metas[r], [*t, *v], keys, delta) for r, t, v in sets)
+    store, why = diskcache.choose(cfg.frame_cache, needed, diskcache.memory_available())
+    _say(f"frame cache {'on disk, beside the dataset' if store == 'disk' else 'in memory'}: {why}")
     train_caches, val_caches = [], []
-    for r, t, v in [(ref, train_eps, val_eps), *splits]:
+    for r, t, v in sets:
         _say(f"loading {r.repo_id} ({r.root}): {len(t)} training and {len(v)} validation episodes")
-        train_caches.append(FrameCache(r, t, keys, delta, progress, learnt[r]))
-        val_caches.append(FrameCache(r, v, keys, delta, progress, learnt[r]))
+        train_caches.append(FrameCache(r, t, keys, delta, progress, learnt[r], store))
+        val_caches.append(FrameCache(r, v, keys, delta, progress, learnt[r], store))
     train_cache, val_cache = FrameCache.join(train_caches), FrameCache.join(val_caches)
     # the policy's frames of a takeover recording teach its mistakes when the label is what it did, and what the
     # wearer would have done there when it is the wearer's (DAgger): learnt from the intended action, they count

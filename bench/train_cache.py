@@ -1,8 +1,9 @@
 """`gloverec train` from the frame cache in memory and on disk (policies/diskcache.py): training steps per second
 on the same camera dataset, and the peak resident memory of the whole run as the dataset grows 3x.
 
-    python bench/train_cache.py --small DIR --large DIR    (two `gloverec record --cameras front,top` datasets,
-                                                             the large one 3x the small one's episodes)
+    python bench/train_cache.py [--small DIR --large DIR]   (two `gloverec record --cameras front,top` datasets,
+                                                             the large one 3x the small one's episodes; without
+                                                             them: 12 and 36 episodes of grasp, recorded first)
 
 Each run is a child process (its peak RSS its own: VmHWM), training gloverec_bc on every episode (no validation
 split, so the steps are all that is timed) with one torch thread, as `gloverec train` does by default. Memory and disk
@@ -111,8 +112,8 @@ def main() -> None:
         child(sys.argv[2], sys.argv[3], int(sys.argv[4]), int(sys.argv[5]), sys.argv[6])
         return
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--small", type=Path, required=True)
-    p.add_argument("--large", type=Path, required=True)
+    p.add_argument("--small", type=Path, help="the 1x dataset (default: 12 episodes of grasp, recorded in --tmp)")
+    p.add_argument("--large", type=Path, help="the 3x dataset (default: 36 episodes of grasp, recorded in --tmp)")
     p.add_argument("--steps", type=int, default=30)
     p.add_argument("--batch-size", type=int, default=64)
     p.add_argument("--pairs", type=int, default=2, help="memory/disk pairs timed on the small dataset")
@@ -122,6 +123,14 @@ def main() -> None:
 
     shutil.rmtree(args.tmp, ignore_errors=True)
     args.tmp.mkdir(parents=True)
+    for name, episodes in (("small", 12), ("large", 36)):
+        if getattr(args, name) is None:  # make bench: the datasets the figures in docs/policies.md came from
+            root = args.tmp / f"grasp{episodes}"
+            subprocess.run([sys.executable, "-m", "recorder.cli", "record", "--glove", "emulator", "--task", "grasp",
+                            "--cameras", "front,top", "--episodes", str(episodes), "--fast", "--no-log",
+                            "--repo-id", f"bench/grasp{episodes}", "--root", str(root), "--view", "none"],
+                           check=True)  # fmt: skip
+            setattr(args, name, root)
     s, b = args.steps, args.batch_size
     for d in (args.small, args.large):  # built afresh, so that the first run's time is a build's
         shutil.rmtree(d / ".cache" / "frames", ignore_errors=True)

@@ -44,6 +44,7 @@ class LoopClock:
 
     realtime: bool
     label: str
+    precedence = False  # whether episodes run in the real-time scheduling class (recorder/record/precedence.py)
 
     def __init__(self, glove, fps: int, nominal_rate_hz: float):
         self.glove, self.period, self.nominal_rate_hz = glove, 1.0 / fps, nominal_rate_hz
@@ -61,16 +62,14 @@ class RealTimeClock(LoopClock):
     def __init__(self, glove, fps: int, nominal_rate_hz: float):
         super().__init__(glove, fps, nominal_rate_hz)
         self.host0 = 0.0
-        self.precedence = False  # whether episodes run in the real-time scheduling class
+        self.precedence, self._why_not = precedence.available()  # asked once: the live view's priority follows it
 
     def session(self) -> str | None:
         """Before the first episode: the heap of torch, lerobot and mujoco (~0.3 s to traverse) is never looked at
-        by the collector again, and whether the loop may take precedence is asked once. Returns the line to say
-        when it may not."""
+        by the collector again. Returns the line to say when the loop may not take precedence."""
         gc.collect()
         gc.freeze()
-        self.precedence, why_not = precedence.available()
-        return why_not
+        return self._why_not
 
     @contextmanager
     def episode(self):

@@ -16,7 +16,6 @@ import time
 
 import numpy as np
 
-from recorder.record import precedence
 from recorder.view import wrist as wrist_view
 from recorder.view.overlay import wrist_brief
 from recorder.view.process import ViewSpec, default_view, open_view
@@ -27,9 +26,11 @@ STATUS_S = 0.25
 
 
 class LiveView:
-    def __init__(self, view: str | None, cfg, env, glove, control, root, say, hand_size=None):
+    def __init__(self, view: str | None, cfg, env, glove, control, root, say, hand_size=None, beside_realtime=False):
         """``view``: a view spec, None for the default (native with a display and a terminal, else none, said).
-        ``hand_size``: the wearer's, for the human hand the view draws."""
+        ``hand_size``: the wearer's, for the human hand the view draws. ``beside_realtime``: the episodes run in
+        the real-time class (the clock's ``precedence``), so the view need not yield to the loop
+        (recorder/view/process.py)."""
         if view is None:
             view, hint = default_view()
             if hint:
@@ -42,8 +43,6 @@ class LiveView:
         options = {"control_hz": float(cfg.fps), "episode_s": float(env.config.episode_s)}
         if env.config.base_position:  # a free wrist: the view frames the workspace's bounds
             options["base_position"] = True
-        # beside episodes in the real-time class, the view need not yield to the loop (recorder/view/process.py)
-        beside_realtime = spec.kind != "none" and not cfg.is_fast and precedence.available()[0]
         self.view = open_view(spec, cfg.task, cfg.robot, layout_of(env), options, on_event=control.request, say=say,
                               hand_size=hand_size, beside_realtime=beside_realtime)  # fmt: skip
         if self.view is not None:

@@ -163,9 +163,8 @@ class Recorder:
             self._open_log()
         self.control = control if control is not None else Control()
         self.control.on_reset(self.glove.reset_pose)  # the reset key re-takes host fusion's reference pose
-        self.live = LiveView(
-            cfg.view, cfg, self.u, self.glove, self.control, self.store.work, self._say, self.profile.size()
-        )
+        self.live = LiveView(cfg.view, cfg, self.u, self.glove, self.control, self.store.work, self._say,
+                             self.profile.size(), beside_realtime=self.clock.precedence)  # fmt: skip
         self.period = 1.0 / cfg.fps
         self._last_line = 0.0
 

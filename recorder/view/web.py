@@ -5,8 +5,9 @@ zero, stop and take over, each also on a key (the terminal's: → n Enter, ← r
 policy and the wearer in a takeover recording; h shows or hides the human hand). Each browser is served by its own
 thread that sends the newest frame when it can, so a slow or closed page never holds up the rendering, let alone
 the recording (which runs in another process, its episodes in the real-time scheduling class where allowed:
-recorder/record/precedence.py). The page loses frames instead: the view draws with the CPU nothing else wants,
-backs off while the recording reports late ticks, and says so in a "view" row. The standard library's HTTP
+recorder/record/precedence.py). The page loses frames instead: the view draws with the CPU the recording leaves
+(recorder/view/process.py, its priority), backs off while the recording reports late ticks, and says so in a
+"view" row. The standard library's HTTP
 server is enough for one page, a stream and five buttons on a local network.
 """
 

@@ -27,19 +27,26 @@ import envs
 IMAGES = "observation.images."
 
 
+def _layout(task_keys: dict) -> dict:
+    """A task's ``observation.*`` entries (its spaces, or one observation's values) under LeRobot's names."""
+    out = {"agent_pos": task_keys["observation.state"]}
+    if "observation.environment_state" in task_keys:  # absent with state_includes_task
+        out["environment_state"] = task_keys["observation.environment_state"]
+    cams = {k.removeprefix(IMAGES): v for k, v in task_keys.items() if k.startswith(IMAGES)}
+    if cams:
+        out["pixels"] = cams
+    return out
+
+
 class LeRobotLayout(gym.ObservationWrapper):
     """A task's ``observation.*`` renamed to what ``preprocess_observation`` reads, and the attributes the rollout
     asks for."""
 
     def __init__(self, env: gym.Env):
         super().__init__(env)
-        spaces = env.observation_space.spaces
-        layout = {"agent_pos": spaces["observation.state"]}
-        if "observation.environment_state" in spaces:  # absent with state_includes_task
-            layout["environment_state"] = spaces["observation.environment_state"]
-        cams = {k.removeprefix(IMAGES): v for k, v in spaces.items() if k.startswith(IMAGES)}
-        if cams:
-            layout["pixels"] = gym.spaces.Dict(cams)
+        layout = _layout(env.observation_space.spaces)
+        if "pixels" in layout:
+            layout["pixels"] = gym.spaces.Dict(layout["pixels"])
         self.observation_space = gym.spaces.Dict(layout)
         cfg = env.unwrapped.config
         # lerobot-eval writes its videos at this rate through PyAV, which takes an int, not a float
@@ -70,13 +77,7 @@ class LeRobotLayout(gym.ObservationWrapper):
         return frame
 
     def observation(self, obs: dict) -> dict:
-        out = {"agent_pos": obs["observation.state"]}
-        if "observation.environment_state" in obs:
-            out["environment_state"] = obs["observation.environment_state"]
-        cams = {k.removeprefix(IMAGES): v for k, v in obs.items() if k.startswith(IMAGES)}
-        if cams:
-            out["pixels"] = cams
-        return out
+        return _layout(obs)
 
     @property
     def task_description(self) -> str:

@@ -246,6 +246,11 @@ class HandEnv(gym.Env):
         )
         self._act_qpos = m.jnt_qposadr[m.actuator_trnid[:, 0]]
         self._robot_geoms = np.flatnonzero(m.body_rootid[m.geom_bodyid] == robot_root)
+        # each finger's distal body (the one its fingertip site is on) and its geoms: what a task lights, what a
+        # pinch must touch with, and what a watching wearer sees close on an object (``distal_gaps``)
+        tips = [m.site(n).id for n in self.robot.tip_sites]
+        self._distal = {f: int(m.site_bodyid[t]) for f, t in zip(self.robot.fingers, tips)}
+        self._distal_geoms = {f: np.flatnonzero(m.geom_bodyid == b) for f, b in self._distal.items()}
 
     # ------------------------------------------------------------ the base
     def palm_pose(self) -> tuple[np.ndarray, np.ndarray]:
@@ -390,6 +395,20 @@ class HandEnv(gym.Env):
                 if a == geom and b in self._robot_geoms:
                     bodies.add(int(m.geom_bodyid[b]))
         return bodies
+
+    def distal_gaps(self, geom: int, reach_m: float = 0.05) -> dict[str, float]:
+        """Per finger (thumb first), the gap (m) between its distal segment's surface and ``geom``'s: negative where
+        they press into each other, at most ``reach_m``. What an operator watching the robot hand judges when they
+        close it on an object (recorder/demonstrator/watching.py)."""
+        m, d = self.model, self.data
+        colliding = (m.geom_contype != 0) | (m.geom_conaffinity != 0)
+        return {
+            f: min(
+                (mujoco.mj_geomDistance(m, d, int(g), geom, reach_m, None) for g in geoms if colliding[g]),
+                default=reach_m,
+            )  # fmt: skip
+            for f, geoms in self._distal_geoms.items()
+        }
 
     def hand_contacts(self, geom: int) -> int:
         """How many distinct hand bodies touch ``geom``."""

@@ -196,6 +196,11 @@ class HandGraspEnv(HandEnv):
             q = quat.from_axis_angle(self._tilt_axis, angle)
         return pos, q
 
+    @property
+    def object_geom(self) -> int:
+        """The geom of the episode's object (what the hand must hold)."""
+        return int(self._object[1])
+
     def object_pose(self) -> np.ndarray:
         qadr = self._object[2]
         return self.data.qpos[qadr : qadr + 7].copy()

@@ -257,6 +257,11 @@ class HandPinchEnv(HandEnv):
         pos[2] += self.config.lift_m * min_jerk((t - s["lift"]) / self.config.lift_s)
         return pos, quat.IDENTITY.copy()
 
+    @property
+    def object_geom(self) -> int:
+        """The geom of the episode's object (what the hand must hold)."""
+        return int(self._object[1])
+
     def object_pose(self) -> np.ndarray:
         qadr = self._object[2]
         return self.data.qpos[qadr : qadr + 7].copy()

@@ -9,6 +9,7 @@ carry the glove's sensor noise and latency through the whole stack. recorder/rig
 from __future__ import annotations
 
 import importlib
+from dataclasses import replace
 
 from envs.tasks.registry import get_task
 from recorder.config import ConfigError
@@ -43,10 +44,18 @@ def demonstrator_class(task: str) -> type:
 DEMONSTRATORS = ("scripted", "human")
 
 
-def make_demonstrator(task: str, kind: str = "scripted", failure_rate: float | None = None):
+def make_demonstrator(task: str, kind: str = "scripted", failure_rate: float | None = None, watches: bool = True):
     """The task's scripted demonstrator, or with ``kind="human"`` its human-like one (recorder/demonstrator/human.py;
-    ``failure_rate``: the share of takes it gets wrong, default 15 %). An unknown kind, or a task without a human-like
-    demonstrator: one-line ConfigError."""
+    ``failure_rate``: the share of takes it gets wrong, default 15 %). ``watches=False``: the open-loop wearer, who
+    never looks at the robot hand (where the demonstrator's config has a ``sight``: recorder/demonstrator/
+    watching.py). An unknown kind, or a task without a human-like demonstrator: one-line ConfigError."""
+    demo = _make(task, kind, failure_rate)
+    if not watches and getattr(demo.config, "sight", None) is not None:
+        demo.config = replace(demo.config, sight=None)
+    return demo
+
+
+def _make(task: str, kind: str, failure_rate: float | None):
     if kind == "scripted":
         return demonstrator_class(task)()
     if kind != "human":

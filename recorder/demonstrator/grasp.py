@@ -16,6 +16,7 @@ import numpy as np
 
 from recorder.demonstrator.motion import DemoMotion
 from recorder.demonstrator.reach import grip
+from recorder.demonstrator.watching import SightConfig
 from recorder.hand.gestures import GESTURES
 from recorder.hand.kinematics import JOINTS, interpolate_dip
 
@@ -62,6 +63,7 @@ class GraspDemoConfig:
     wrist_reaction_s: tuple = (0.15, 0.3)  # a free wrist: each of the script's base moves started this late
     aim_mm: float = 3.0  # a free wrist: the reach's error, standard deviation, each horizontal axis
     rate_hz: float = 200.0
+    sight: SightConfig | None = SightConfig()  # the wearer watches the fingers close (None: open loop)
 
 
 class GraspDemonstrator:
@@ -76,4 +78,4 @@ class GraspDemonstrator:
         rng = np.random.default_rng(seed)
         size = 2.0 * float(np.mean(env.object_half[:2])) / env.robot.config.retarget.tips.scale
         noise = np.clip(rng.normal(0, 1, len(JOINTS)), -2, 2) * np.radians(c.pose_noise_deg)
-        return grip(env, rng, c, GESTURES["open"], PREGRASP, power_grasp(size) + noise)
+        return grip(env, rng, c, GESTURES["open"], PREGRASP, power_grasp(size) + noise, env.robot.fingers)

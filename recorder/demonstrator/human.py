@@ -172,8 +172,12 @@ class HumanGripDemonstrator(MeantFailures):
         rng, sub, fails, strategy, r = take(seed, h, self.kinds, ("together", "thumb first"))
         config = replace(c, preshape_s=(duration(rng, h, c.preshape_s),) * 2, reaction_s=(r, r),
                          close_s=(duration(rng, h, c.close_s),) * 2)  # fmt: skip
-        m = self._scripted_plan(env, config, int(sub.integers(2**31)), fails)
-        m = DemoMotion(m.times, m.poses, rng, c.rate_hz, tremor_deg=h.tremor_deg, palm_deg=getattr(c, "palm_deg", 3.0))
+        planned = self._scripted_plan(env, config, int(sub.integers(2**31)), fails)
+        m = DemoMotion(planned.times, planned.poses, rng, c.rate_hz, tremor_deg=h.tremor_deg,
+                       palm_deg=getattr(c, "palm_deg", 3.0))  # fmt: skip
+        # watching the hand as the scripted wearer does, but for a careless take: a grip left too loose is not
+        # looked at (closing it would undo the mistake), and one let go is watched only until it is
+        m.watcher = None if fails == "too loose" else planned.watcher
         t_close, t_closed = m.times[3], m.times[4]
         opened, closed = m.poses[2], m.poses[4]
         if fails == "too loose":
@@ -185,7 +189,11 @@ class HumanGripDemonstrator(MeantFailures):
             t = env.schedule["lift"] + rng.uniform(0.3, 0.6)
             m.insert(t, m.keyframe_angles([t])[0])
             m.insert(t + rng.uniform(0.3, 0.5), GESTURES["open"])
+            if m.watcher is not None:
+                m.watcher.until_s = t
         m.intent = {"demonstrator": "human", "strategy": strategy, "failure": fails, "edits": edits}
+        if m.watcher is not None:
+            m.intent["corrections"] = m.watcher.made  # filled in as the take is performed
         return m
 
 

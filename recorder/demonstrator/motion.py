@@ -15,7 +15,12 @@ from recorder.hand.motion import MotionBlock, SampledMotion, Sines, min_jerk
 
 
 class DemoMotion(SampledMotion):
-    watches = False  # whether ``watch`` may revise the plan (HandTurn's does): its performer stays close behind
+    watcher = None  # called by ``watch``: a wearer who watches the robot hand (recorder/demonstrator/watching.py)
+
+    @property
+    def watches(self) -> bool:
+        """Whether ``watch`` may revise the plan: its performer stays close behind."""
+        return self.watcher is not None
 
     def __init__(
         self,
@@ -68,13 +73,15 @@ class DemoMotion(SampledMotion):
         """The keyframe path alone (no wander or tremor), (n, 20) rad."""
         return self._keyframes(t, self.poses)
 
-    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0), move=(0.0, 0.0, 0.0)) -> float:
+    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0), move=(0.0, 0.0, 0.0),
+               pose_delta=None) -> float:  # fmt: skip
         """A correction while demonstrating: from ``at_s`` on, spend ``duration_s`` turning the palm by
-        ``palm_delta`` (a rotation vector, palm axes; zeros: a pause) and moving it by ``move`` (m, world), then go
-        on with the rest of the plan that much later (and turned and moved by that much). ``at_s`` must fall in a
-        hold (between two equal keyframes): the path before it is unchanged, so samples already taken stay
-        valid. Returns when the correction starts (``at_s``; a performer may start it later, or return None
-        when it is too late)."""
+        ``palm_delta`` (a rotation vector, palm axes; zeros: a pause), moving it by ``move`` (m, world) and the
+        joints by ``pose_delta`` ((20,) rad, or None), then go on with the rest of the plan that much later (and
+        turned and moved by that much; flexed by that much while the pose is held, the plan's next posture as
+        planned). ``at_s`` must fall in a hold (between two equal keyframes): the
+        path before it is unchanged, so samples already taken stay valid. Returns when the correction starts
+        (``at_s``; a performer may start it later, or return None when it is too late)."""
         at_s = float(at_s)
         k = int(np.searchsorted(self.times, at_s, side="right"))
         if 0 < k < len(self.times) and not (
@@ -84,10 +91,13 @@ class DemoMotion(SampledMotion):
         ):
             raise ValueError(f"a correction at {at_s:.2f} s falls inside a move, not a hold")
         delta = np.asarray(palm_delta, float)
+        flex = np.zeros(N_JOINTS) if pose_delta is None else np.asarray(pose_delta, float)
         pose, turn = self.keyframe_angles([at_s])[0], self._keyframes([at_s], self.palm_turns)[0]
         at, move = self._keyframes([at_s], self.palm_positions)[0], np.asarray(move, float)  # before the times move
         self.times = np.concatenate((self.times[:k], [at_s, at_s + duration_s], self.times[k:] + duration_s))
-        self.poses = np.concatenate((self.poses[:k], [pose, pose], self.poses[k:]))
+        held = np.cumprod([np.allclose(p, pose) for p in self.poses[k:]]).astype(bool)  # the hold goes on flexed;
+        later = self.poses[k:] + np.where(held[:, None], flex, 0.0)  # a move after it goes where it was planned to
+        self.poses = clip(np.concatenate((self.poses[:k], [pose, pose + flex], later)))
         self.palm_positions = np.concatenate((self.palm_positions[:k], [at, at + move], self.palm_positions[k:] + move))
         self.palm_turns = np.concatenate((self.palm_turns[:k], [turn, turn + delta], self.palm_turns[k:] + delta))
         return at_s
@@ -110,7 +120,9 @@ class DemoMotion(SampledMotion):
     def watch(self, env, into=None) -> None:
         """Called by whoever performs the demonstration after each step of ``env``: a demonstrator that watches
         what it does corrects its plan here (``into.revise``; ``into``: where the plan is performed, by default
-        this motion). This one does not."""
+        this motion), through its ``watcher`` if it has one."""
+        if self.watcher is not None:
+            self.watcher(self, env, self if into is None else into)
 
     def angles(self, t) -> np.ndarray:
         t = np.atleast_1d(np.asarray(t, float))

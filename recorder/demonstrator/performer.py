@@ -12,14 +12,16 @@ import threading
 
 from recorder import GloverecError
 from recorder.demonstrator.session import SessionMotion
+from recorder.emulator.emulator import FAST_BLOCK_S
 from recorder.glove.config import EMULATOR, GloveConfig
 from recorder.glove.glove import make_glove
 from recorder.hand.kinematics import interpolate_dip
 
 TRANSITION_S = 0.8  # the emulated hand's move back to a demonstration's start pose
 LEAD_S = 0.5  # faster than real time, the emulator runs at most this far ahead of the loop's needs
-WATCHING_LEAD_S = 0.05  # ... or this far, while a demonstrator that watches performs (its corrections come a
-# reaction time, 0.1-0.3 s, after what it saw: further ahead, the emulator would have synthesised past them)
+WATCHING_LEAD_S = 0.05  # ... or this far, in blocks this long, while a demonstrator that watches performs (its
+# corrections come a reaction time, 0.1-0.3 s, after what it saw: further ahead, the emulator would have
+# synthesised past them)
 
 
 def performs(config: GloveConfig) -> bool:
@@ -81,9 +83,11 @@ class Performer:
             self.session.append(demo, start, TRANSITION_S)
         self._demo_start = start
         self._lead_s = WATCHING_LEAD_S if demo.watches else LEAD_S
+        self.emulator.fast_block_s = WATCHING_LEAD_S if demo.watches else FAST_BLOCK_S
         self.emulator.schedule_button(start)
 
-    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0), move=(0.0, 0.0, 0.0)) -> float | None:
+    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0), move=(0.0, 0.0, 0.0),
+               pose_delta=None) -> float | None:  # fmt: skip
         """The demonstration being performed corrects itself (DemoMotion.revise, ``at_s`` in its own time): in the
         session's time, and never before what the emulator has synthesised already. Returns when it starts, in
         the demonstration's time (``at_s`` or later), so that the plan's copy makes the same correction; None when
@@ -92,7 +96,7 @@ class Performer:
         with self._motion.lock:
             at = max(self._demo_start + at_s, self._motion.taken_s + 1.0 / self._motion.rate_hz)
             try:
-                return self.session.revise(at, duration_s, palm_delta, move) - self._demo_start
+                return self.session.revise(at, duration_s, palm_delta, move, pose_delta) - self._demo_start
             except ValueError:
                 return None
 

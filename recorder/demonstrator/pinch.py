@@ -15,6 +15,7 @@ import numpy as np
 from envs.tasks.hand_pinch import pinch_angles, robot_pinch
 from recorder.demonstrator.motion import DemoMotion
 from recorder.demonstrator.reach import grip
+from recorder.demonstrator.watching import SightConfig
 from recorder.hand.gestures import GESTURES
 from recorder.hand.kinematics import JOINTS
 
@@ -35,6 +36,7 @@ class PinchDemoConfig:
     wrist_reaction_s: tuple = (0.15, 0.3)  # a free wrist: each of the script's base moves started this late
     aim_mm: float = 2.0  # a free wrist: the reach's error, standard deviation, each horizontal axis
     rate_hz: float = 200.0
+    sight: SightConfig | None = SightConfig()  # the wearer watches the pads close (None: open loop)
 
     def squeeze_for(self, robot: str) -> tuple:
         return self.robot_squeeze_mm.get(robot, self.squeeze_mm)
@@ -59,7 +61,7 @@ class PinchDemonstrator:
         start = GESTURES["open"]
         opened = pinch_pose(finger, np.array(open_p) + noise, start)
         closed = pinch_pose(finger, np.array(closed_p) + noise, start)
-        return grip(env, rng, c, start, opened, closed, palm_deg=c.palm_deg)
+        return grip(env, rng, c, start, opened, closed, ("thumb", finger), palm_deg=c.palm_deg)
 
 
 def pinch_pose(finger: str, p, start: np.ndarray) -> np.ndarray:

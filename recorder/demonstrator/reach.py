@@ -13,6 +13,7 @@ import numpy as np
 
 from recorder import quat
 from recorder.demonstrator.motion import DemoMotion
+from recorder.demonstrator.watching import GripWatcher
 
 
 def aim_error(rng: np.random.Generator, sd_mm: float) -> np.ndarray:
@@ -62,10 +63,12 @@ def merge(*tracks):
     return times, *(np.asarray(tr[1])[k] for tr, k in zip(tracks, at))
 
 
-def grip(env, rng: np.random.Generator, c, start, opened, closed, **motion) -> DemoMotion:
+def grip(env, rng: np.random.Generator, c, start, opened, closed, digits, **motion) -> DemoMotion:
     """Hold ``start`` for ``c.pre_s``, open into ``opened`` in ``c.preshape_s``, close into ``closed`` in ``c.close_s``,
     ``c.reaction_s`` after the script's base stops (``env.schedule["close"]``) or once open if that is later, and
-    keep it; with a free wrist, the wearer's wrist follows the script (``c.wrist_reaction_s``, ``c.aim_mm``)."""
+    keep it; with a free wrist, the wearer's wrist follows the script (``c.wrist_reaction_s``, ``c.aim_mm``). With
+    ``c.sight`` the wearer watches ``digits`` (thumb first) close on the object and corrects them
+    (recorder/demonstrator/watching.py); None: open loop."""
     t_pre = rng.uniform(*c.pre_s)
     t_open = t_pre + rng.uniform(*c.preshape_s)
     t_close = max(env.schedule["close"] + rng.uniform(*c.reaction_s), t_open)  # a slow opening is finished first
@@ -77,4 +80,8 @@ def grip(env, rng: np.random.Generator, c, start, opened, closed, **motion) -> D
         w_times, positions, turns = follow_script(env, rng, c.wrist_reaction_s, c.aim_mm)
         times, poses, wrist = merge((times, poses), (w_times, np.hstack((positions, turns))))
         motion.update(palm_pos=wrist[:, :3], palm_turns=wrist[:, 3:])
-    return DemoMotion(times, poses, rng, c.rate_hz, **motion)
+    m = DemoMotion(times, poses, rng, c.rate_hz, **motion)
+    if c.sight is not None:  # drawn after the plan's draws: the open-loop wearer's plan of a seed is the same
+        sight_rng = np.random.default_rng(rng.integers(2**32))
+        m.watcher = GripWatcher(digits, closed - opened, t_close, t_closed, sight_rng, c.sight)
+    return m

@@ -36,9 +36,10 @@ class SessionMotion(DemoMotion):
             self.palm_turns = np.concatenate((self.palm_turns[keep], [turn], demo.palm_turns))
             self.palm_positions = np.concatenate((self.palm_positions[keep], [pos], demo.palm_positions))
 
-    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0), move=(0.0, 0.0, 0.0)) -> float:
+    def revise(self, at_s: float, duration_s: float, palm_delta=(0.0, 0.0, 0.0), move=(0.0, 0.0, 0.0),
+               pose_delta=None) -> float:  # fmt: skip
         with self._lock:
-            return super().revise(at_s, duration_s, palm_delta, move)
+            return super().revise(at_s, duration_s, palm_delta, move, pose_delta)
 
     def next_block(self, n: int):
         with self._lock:

@@ -91,6 +91,8 @@ class Emulator:
         self.t0_us = None
         self.lead_s = None  # faster than real time: synthesise no block that starts after this session
         self._lead = threading.Condition()  # time (None: no limit); a reader raises it with allow()
+        self.fast_block_s = FAST_BLOCK_S  # faster than real time, blocks this long (a performer shortens them
+        # while a wearer who watches corrects the motion: a block once synthesised is fixed)
         self._buttons: list[float] = []
         # The buttons have a lock of their own: the port's is held while a fast write waits for the reader, and the
         # reader may be waiting for the recording loop to take its frames, the loop that schedules the buttons.
@@ -195,7 +197,7 @@ class Emulator:
             if block is None or i == len(block.t):
                 if not realtime and not self._wait_for_lead(t):
                     break
-                block_s = BLOCK_S if realtime else FAST_BLOCK_S
+                block_s = BLOCK_S if realtime else self.fast_block_s
                 block, i = self.glove.next_block(max(1, int(block_s * self.sense_hz))), 0
                 self.horizon_s = float(block.t[-1]) + period
             if self.core is not None:

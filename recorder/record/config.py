@@ -67,6 +67,11 @@ class RecordConfig(SessionConfig):
     failure_rate: Annotated[float, NonNegative] = setting(
         0.15, "--demonstrator human: the share of takes the wearer gets wrong (0 to 1)"
     )
+    open_loop: bool = setting(
+        False,
+        "the emulated wearer never looks at the robot hand: grasp and pinch close as planned, without the "
+        "corrections a person watching the view makes (a benchmark's baseline)",
+    )
     policy: str | None = setting(
         None,
         "a trained policy (a checkpoint or training folder) that drives the hand while the glove is read: the "

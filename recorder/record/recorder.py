@@ -108,7 +108,7 @@ class Recorder:
         # the session's parts: the task (reset: a setting that cannot work fails before anything is written), the
         # wearer's hand and the retargeter, the demonstrator when the emulated wearer performs its demonstrations
         self.rig = Rig(cfg, options=cfg.task_options(), seed=cfg.seed, profile=profile, demonstrator=cfg.demonstrator,
-                       failure_rate=cfg.failure_rate, say=self._say)  # fmt: skip
+                       failure_rate=cfg.failure_rate, watches=not cfg.open_loop, say=self._say)  # fmt: skip
         self.profile, self.env, self.u, self.retarget = profile, self.rig.env, self.rig.u, self.rig.retarget
         self.demonstrator = self.rig.demonstrator
         wrist = cfg.wrist_config

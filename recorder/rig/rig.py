@@ -85,7 +85,8 @@ class Rig:
     the task's defaults); ``seed``: the environment's first reset (None: the command resets it); ``profile``: the
     wearer's hand (default: ``cfg.wearer``'s saved profile in ``folder``, or the reference hand); ``demonstrator``,
     ``failure_rate``: the scripted demonstrator's kind (scripted, human), made when the emulated wearer performs
-    demonstrations (None: no demonstrator); ``env=False``: no task environment (the teleoperator drives a robot,
+    demonstrations (None: no demonstrator), ``watches=False`` its open-loop wearer; ``env=False``: no task
+    environment (the teleoperator drives a robot,
     not a task), the retargeter then the robot hand's with its base turned by the palm (None for a robot that is
     not a gloverec hand); ``say``: where the rig's own lines go."""
 
@@ -98,6 +99,7 @@ class Rig:
         profile: HandProfile | None = None,
         demonstrator: str | None = None,
         failure_rate: float | None = None,
+        watches: bool = True,
         folder=None,
         env: bool = True,
         say=None,
@@ -114,7 +116,7 @@ class Rig:
         else:
             self.retarget = Retargeter(cfg.robot, cfg.retarget, hand_size=size) if cfg.robot in robot_names() else None
         scripted = demonstrator is not None and performs(self.glove_config)  # the emulated wearer performs them
-        self.demonstrator = make_demonstrator(cfg.task, demonstrator, failure_rate) if scripted else None
+        self.demonstrator = make_demonstrator(cfg.task, demonstrator, failure_rate, watches) if scripted else None
         self.glove: Glove | None = None
         self.performer: Performer | None = None  # the emulated wearer (with the demonstrator): it wears the glove
         self.wrist: WristTrack | None = None

@@ -148,7 +148,7 @@ def run_episode(
 
 def success_rate(
     task: str, robot: str, episodes: int, via: str = "direct", mode: str = "joint", seed0: int = 0,
-    demonstrator: str = "scripted", failure_rate: float | None = None, **env_kwargs,
+    demonstrator: str = "scripted", failure_rate: float | None = None, watches: bool = True, **env_kwargs,
 ) -> dict:  # fmt: skip
 
     rig = Rig(
@@ -157,6 +157,7 @@ def success_rate(
         seed=None,
         demonstrator=demonstrator,
         failure_rate=failure_rate,
+        watches=watches,
     )
     env, r = rig.env, rig.retarget
     t0 = time.perf_counter()
@@ -174,6 +175,7 @@ def success_rate(
         "via": via,
         "mode": mode,
         "demonstrator": demonstrator,
+        "watches": watches,
         "episodes": episodes,
         "success_rate": round(ok / episodes, 3),
         "successes": ok,
@@ -194,11 +196,12 @@ def main(argv=None) -> None:
     p.add_argument("--free-wrist", action="store_true", help="base_position: the wearer's wrist moves the base")
     p.add_argument("--demonstrator", choices=("scripted", "human"), default="scripted")
     p.add_argument("--failure-rate", type=float, help="--demonstrator human: the share of failed takes (0.15)")
+    p.add_argument("--open-loop", action="store_true", help="the wearer never looks at the robot hand (grasp, pinch)")
     p.add_argument("--brief", action="store_true", help="leave out the per-episode runs")
     args = p.parse_args(argv)
     free = {"base_position": True} if args.free_wrist else {}
     out = success_rate(args.task, args.robot, args.episodes, args.via, args.retarget, args.seed, args.demonstrator,
-                       args.failure_rate, **free)  # fmt: skip
+                       args.failure_rate, not args.open_loop, **free)  # fmt: skip
     if args.brief:
         out.pop("runs")
     print(json.dumps(out))

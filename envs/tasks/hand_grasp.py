@@ -201,6 +201,14 @@ class HandGraspEnv(HandEnv):
         """The geom of the episode's object (what the hand must hold)."""
         return int(self._object[1])
 
+    def displace_object(self, offset) -> None:
+        """Move the object by ``offset`` (x, y, m) where it rests, at rest (a push that slid it there): the state a
+        demonstrator must recover from (bench/envs.py's displacement, tests)."""
+        qadr = self._object[2]
+        self.data.qpos[qadr : qadr + 2] += np.asarray(offset, float)[:2]
+        self.data.qvel[self.model.jnt_dofadr[self.model.body_jntadr[self._object[0]]] :][:6] = 0.0
+        mujoco.mj_forward(self.model, self.data)
+
     def object_pose(self) -> np.ndarray:
         qadr = self._object[2]
         return self.data.qpos[qadr : qadr + 7].copy()

@@ -32,7 +32,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from recorder.config import ConfigError
 from recorder.demonstrator.grasp import GraspDemonstrator
 from recorder.demonstrator.keys import KeysDemoConfig, KeysDemonstrator
 from recorder.demonstrator.motion import DemoMotion
@@ -59,6 +58,9 @@ class HumanConfig:
     hesitate_s: tuple = (0.1, 0.25)
     tremor_deg: float = 0.3
     loose: float = 0.45  # "too loose": this much of the way from open to the grasp
+    aim_mm: float = 5.0  # a free wrist: a reach's endpoint error, standard deviation, each horizontal axis
+    place_mm: float = 8.0  # ... and a carry's (relocate), before the wearer looks and nudges it
+    short_carry: float = 0.4  # relocate "misplaces": the carry goes this share of the way, unwatched
     short: float = 0.6  # "stops short": this much of the way to the gesture
 
 
@@ -165,16 +167,16 @@ class HumanGripDemonstrator(MeantFailures):
 
     def plan(self, env, seed: int | None = None) -> DemoMotion:
         env, h, c = env.unwrapped, self.human, self.config
-        if env.config.base_position:
-            raise ConfigError(
-                f"the human-like {env.task_name} demonstrator moves the fingers only: record without --wrist"
-            )
         rng, sub, fails, strategy, r = take(seed, h, self.kinds, ("together", "thumb first"))
         config = replace(c, preshape_s=(duration(rng, h, c.preshape_s),) * 2, reaction_s=(r, r),
                          close_s=(duration(rng, h, c.close_s),) * 2)  # fmt: skip
+        if env.config.base_position:  # a free wrist: the script's moves each a person's reaction late, aimed as
+            rw = reaction(rng, h)  # a person aims (drawn after the fingers' draws: a fixed wrist's takes unchanged)
+            config = replace(config, wrist_reaction_s=(rw, rw), aim_mm=h.aim_mm)
         planned = self._scripted_plan(env, config, int(sub.integers(2**31)), fails)
         m = DemoMotion(planned.times, planned.poses, rng, c.rate_hz, tremor_deg=h.tremor_deg,
-                       palm_deg=getattr(c, "palm_deg", 3.0))  # fmt: skip
+                       palm_deg=getattr(c, "palm_deg", 3.0), palm_pos=planned.palm_positions,
+                       palm_turns=planned.palm_turns)  # fmt: skip
         # watching the hand as the scripted wearer does, but for a careless take: a grip left too loose is not
         # looked at (closing it would undo the mistake), and one let go is watched only until it is
         m.watcher = None if fails == "too loose" else planned.watcher

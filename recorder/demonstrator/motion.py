@@ -83,13 +83,7 @@ class DemoMotion(SampledMotion):
         path before it is unchanged, so samples already taken stay valid. Returns when the correction starts
         (``at_s``; a performer may start it later, or return None when it is too late)."""
         at_s = float(at_s)
-        k = int(np.searchsorted(self.times, at_s, side="right"))
-        if 0 < k < len(self.times) and not (
-            np.allclose(self.poses[k - 1], self.poses[k])
-            and np.allclose(self.palm_turns[k - 1], self.palm_turns[k])
-            and np.allclose(self.palm_positions[k - 1], self.palm_positions[k])
-        ):
-            raise ValueError(f"a correction at {at_s:.2f} s falls inside a move, not a hold")
+        k = self._hold(at_s)
         delta = np.asarray(palm_delta, float)
         flex = np.zeros(N_JOINTS) if pose_delta is None else np.asarray(pose_delta, float)
         pose, turn = self.keyframe_angles([at_s])[0], self._keyframes([at_s], self.palm_turns)[0]
@@ -100,6 +94,29 @@ class DemoMotion(SampledMotion):
         self.poses = clip(np.concatenate((self.poses[:k], [pose, pose + flex], later)))
         self.palm_positions = np.concatenate((self.palm_positions[:k], [at, at + move], self.palm_positions[k:] + move))
         self.palm_turns = np.concatenate((self.palm_turns[:k], [turn, turn + delta], self.palm_turns[k:] + delta))
+        return at_s
+
+    def _hold(self, at_s: float) -> int:
+        """The index of the first keyframe after ``at_s``, which must fall in a hold (between two equal keyframes,
+        or after the last): a change from there leaves the path before it as it was. A move: ValueError."""
+        k = int(np.searchsorted(self.times, at_s, side="right"))
+        if 0 < k < len(self.times) and not (
+            np.allclose(self.poses[k - 1], self.poses[k])
+            and np.allclose(self.palm_turns[k - 1], self.palm_turns[k])
+            and np.allclose(self.palm_positions[k - 1], self.palm_positions[k])
+        ):
+            raise ValueError(f"a correction at {at_s:.2f} s falls inside a move, not a hold")
+        return k
+
+    def splice(self, at_s: float, plan: DemoMotion) -> float:
+        """From ``at_s`` (in a hold) on, perform ``plan`` instead of the rest of this one: a plan made from the state
+        the demonstration found there (its time 0 is ``at_s``, its first keyframe the hand as it holds then).
+        Returns ``at_s``."""
+        at_s = float(at_s)
+        k = self._hold(at_s)
+        self.times = np.concatenate((self.times[:k], at_s + plan.times))
+        for name in ("poses", "palm_positions", "palm_turns"):
+            setattr(self, name, np.concatenate((getattr(self, name)[:k], getattr(plan, name))))
         return at_s
 
     def insert(self, t: float, pose, replace: bool = False) -> None:

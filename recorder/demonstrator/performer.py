@@ -100,6 +100,17 @@ class Performer:
             except ValueError:
                 return None
 
+    def splice(self, at_s: float, plan) -> float | None:
+        """The demonstration being performed goes on as ``plan`` from ``at_s`` (DemoMotion.splice: a plan made from
+        the state it found), in the session's time and never before what the emulator has synthesised already;
+        returns when, in the demonstration's time, or None when that is no longer in the hold it was meant for."""
+        with self._motion.lock:
+            at = max(self._demo_start + at_s, self._motion.taken_s + 1.0 / self._motion.rate_hz)
+            try:
+                return self.session.splice(at, plan) - self._demo_start
+            except ValueError:
+                return None
+
     def performed(self, t: float):
         """The emulated wearer's palm at glove time ``t`` as the emulator performs it (the session's motion, the
         palm's drift included: what its IMUs measure), as (position (3,), quat (4,)) in the world; faster than

@@ -30,6 +30,7 @@ class RelocateDemoConfig:
     reaction_s: tuple = (0.15, 0.3)  # before each move: seeing that the last one is done
     reach_s: tuple = (0.6, 0.8)  # over the object, ``approach_m`` above where it grasps
     approach_m: float = 0.02
+    look_s: tuple = (0.08, 0.15)  # over the object, a glance that the hand is above it before coming down
     descend_s: tuple = (0.25, 0.35)  # the last of the reach, straight down onto the object, slowly
     close_s: tuple = (0.45, 0.7)
     squeeze_s: float = 0.3
@@ -46,25 +47,39 @@ class RelocateDemoConfig:
     aim_mm: float = 3.0  # the reach's error, standard deviation, each horizontal axis
     place_mm: float = 5.0  # the carry's error, the same
     pose_noise_deg: float = 3.0
+    tremor_deg: float = 0.05
+    grip: float = 1.0  # how far the fingers close, from the pregrasp to the grasp (a human-like "too loose": less)
+    carry: float = 1.0  # how much of the way to the circle the carry goes (less: a carry stopped short, unwatched)
     rate_hz: float = 200.0
 
 
 class RelocateMotion(DemoMotion):
     """The plan, and the person watching it: in the pause after the lift they see where the object sits in the
-    hand and aim the carry for it, and in the pause before letting go they nudge it into the circle."""
+    hand and aim the carry for it, and in the pause before letting go they nudge it into the circle. When they see
+    the object lie elsewhere than they reached for (knocked, pushed, dropped), they plan again from where the hand
+    and the object are (``planner``: the demonstrator; at the plan's next pause, at most ``replans`` times)."""
 
     watches = True
+    replans = 3
+    moved_m = 0.015  # the object this far from where the plan reaches for it (and at rest): planned again
 
-    def __init__(self, *args, checks=(), carry=(0.0, 0.0), lower=None, land_m=0.0, nudge_mm: float = 6.0, **kw):
+    def __init__(self, *args, checks=(), carry=(0.0, 0.0), lower=None, land_m=0.0, nudge_mm: float = 6.0,
+                 aim=None, planner=None, seed: int = 0, **kw):  # fmt: skip
         super().__init__(*args, **kw)
         self.checks = list(checks)  # (from_s, to_s, kind): the pauses where the person looks
         self.carry = np.asarray(carry, float)  # the planned carry (x, y) still ahead at the first check
         self.lower = lower  # how far the plan lowers the object after the carry (m; None: not looked at)
         self.land_m = land_m  # where the lowering should leave the object's bottom, above where it started
         self.nudge_m = nudge_mm * 1e-3
+        self.aim = None if aim is None else np.asarray(aim, float)  # (x, y, until_s): where the reach goes for the
+        self.planner, self.seed, self.replanned = planner, seed, 0  # object, until the hand is over it
+        self._last_seen = None
 
     def watch(self, env, into=None) -> None:
         into = self if into is None else into
+        if self._displaced(env):
+            self._replan(env, into)
+            return
         if not self.checks or env.t < self.checks[0][0]:
             return
         start, end, kind = self.checks.pop(0)
@@ -86,6 +101,50 @@ class RelocateMotion(DemoMotion):
             self.revise(at, took, move=move)  # this plan's own copy, when the performer made it
         self.checks = [(a + took, b + took, k) for a, b, k in self.checks]
 
+    def _displaced(self, env) -> bool:
+        """The object lies, at rest, away from where the reach goes for it (before the grasp)."""
+        pose = env.object_pose()[:3]
+        still = self._last_seen is not None and np.linalg.norm(pose - self._last_seen) < 2e-4  # < 6 mm/s at 30 Hz
+        self._last_seen = pose
+        if self.planner is None or self.aim is None or self.replanned >= self.replans or env.t >= self.aim[2]:
+            return False
+        return still and float(np.linalg.norm(pose[:2] - self.aim[:2])) > self.moved_m
+
+    def _replan(self, env, into) -> None:
+        """Plan again from the hand and the object as they are, at the plan's next pause (a person finishes the
+        move they are in, then re-aims)."""
+        t = env.t + 0.02
+        k = int(np.searchsorted(self.times, t, side="right"))
+        while k < len(self.times) and not (
+            self.times[k] > max(t, self.times[k - 1]) + 0.05
+            and np.allclose(self.poses[k - 1], self.poses[k])
+            and np.allclose(self.palm_positions[k - 1], self.palm_positions[k])
+        ):
+            k += 1  # (a pause: two equal keyframes, the fingers' pose and the palm's place alike, not over yet)
+        if k >= len(self.times):
+            return
+        at = max(t, float(self.times[k - 1]) + 1e-3)
+        start = (self.keyframe_angles([at])[0], self._keyframes([at], self.palm_positions)[0])
+        self.replanned += 1
+        fresh = self.planner.plan(env, seed=self.seed + 7919 * self.replanned, start=start)
+        try:
+            done = into.splice(at, fresh)
+        except ValueError:  # (this plan performed directly: never, the pause was found above)
+            done = None
+        if done is None:
+            self.replanned -= 1  # too late for that pause: the next look tries the next one
+            return
+        if into is not self:
+            self.splice(done, fresh)
+        self.checks = [(a + done, b + done, kind) for a, b, kind in fresh.checks]
+        self.carry, self.lower, self.land_m = fresh.carry, fresh.lower, fresh.land_m
+        self.aim = fresh.aim + [0.0, 0.0, done]
+
+
+def in_hand(env) -> bool:
+    """The object is held off the table: two hand bodies on it, and 1 cm above where it rests."""
+    return bool(env.hand_contacts(env.object_geom) >= 2 and env.object_pose()[2] - env.object_start[2] > 0.01)
+
 
 class RelocateDemonstrator:
     task = "relocate"
@@ -93,7 +152,11 @@ class RelocateDemonstrator:
     def __init__(self, config: RelocateDemoConfig = RelocateDemoConfig()):
         self.config = config
 
-    def plan(self, env, seed: int | None = None) -> DemoMotion:
+    def plan(self, env, seed: int | None = None, start=None) -> RelocateMotion:
+        """The demonstration from the reset; with ``start``, (pose (20,) rad, palm position (3,) m): where the
+        wearer's hand is now, from the environment as it is now (env.t is the plan's time 0): the object reached for
+        where it lies, or carried on if it is in the hand (a re-grip after it was knocked, a policy's state taken
+        over)."""
         env = env.unwrapped
         c = self.config
         rng = np.random.default_rng(seed)
@@ -104,42 +167,54 @@ class RelocateDemonstrator:
         size = 2.0 * float(np.mean(env.object_half[:2])) / env.robot.config.retarget.tips.scale
         noise = np.clip(rng.normal(0, 1, len(JOINTS)), -2, 2) * np.radians(c.pose_noise_deg)
         grasp = power_grasp(size) + noise
-        start, _ = env._base_target(0.0)
+        grasp = PREGRASP + c.grip * (grasp - PREGRASP)
         gp = np.array(env.robot.config.grasp_point)
-        at_object = np.array([*(env.object_start[:2] + aim_error(rng, c.aim_mm)), 2 * env.object_half[2] + 0.003]) - gp
+        lies = env.object_pose()[:2]
+        at_object = np.array([*(lies + aim_error(rng, c.aim_mm)), 2 * env.object_half[2] + 0.003]) - gp
         if env.object_shape == "sphere":  # on the ball, not just above it: it cannot roll from under the palm
             at_object[2] -= 0.003 + c.palm_on_ball_m
         lifted = at_object + [0, 0, c.lift_m]
-        shift = env.target - env.object_start[:2] + rng.normal(0, c.place_mm * 1e-3, 2)
-        over_target = lifted + [*shift, 0]
-        placed = at_object + [*shift, 0.004]
-        away = placed + [0, 0, 0.06]
+        shift = (env.target - lies + rng.normal(0, c.place_mm * 1e-3, 2)) * c.carry
         opened = GESTURES["open"]
-        keys = [(0.0, opened, start)]
+        pose, pos = (opened, env._base_target(0.0)[0]) if start is None else (np.asarray(start[0]), start[1])
+        held = start is not None and in_hand(env)
+        if held:  # carried on from where the hand holds it
+            lifted = np.array([pos[0], pos[1], max(pos[2], lifted[2])])
+        over_target = lifted + [*shift, 0]
+        placed = np.array([*over_target[:2], at_object[2] + 0.004])
+        away = placed + [0, 0, 0.06]
+        keys = [(0.0, pose, np.asarray(pos, float))]
 
         checks = []
 
         def then(span, pose, pos, react=True, look=None) -> None:
-            t = keys[-1][0] + (took(c.reaction_s) if react else 0.0)
+            t = keys[-1][0] + (took(c.reaction_s if react is True else react) if react else 0.0)
             keys.append((t, keys[-1][1], keys[-1][2]))  # held while reacting (and looking)
             if look:
                 checks.append((keys[-2][0], t, look))
             keys.append((t + (took(span) if isinstance(span, tuple) else span), pose, pos))
 
-        then(c.reach_s, PREGRASP, at_object + [0, 0, c.approach_m])
-        then(c.descend_s, PREGRASP, at_object, react=False)
-        then(c.close_s, grasp, at_object)
-        then(c.squeeze_s, grasp, at_object, react=False)
-        then(c.lift_s, grasp, lifted, react=False)
+        if not held:
+            clear = at_object[2] + c.approach_m
+            if start is not None and pos[2] < clear - 1e-3:  # up first, clear of the object, then over it
+                then(c.lift_s, PREGRASP, [*pos[:2], clear + 0.01])
+            then(c.reach_s, PREGRASP, at_object + [0, 0, c.approach_m])
+            reached = keys[-1][0]  # from here on the hand is at the object: it may nudge it itself
+            then(c.descend_s, PREGRASP, at_object, react=c.look_s)  # a look that it is over the object
+            then(c.close_s, grasp, at_object)
+            then(c.squeeze_s, grasp, at_object, react=False)
+            then(c.lift_s, grasp, lifted, react=False)
+        else:
+            grasp, reached = pose, 0.0
         then(c.carry_s, grasp, over_target, look="carry")
         then(c.lower_s, grasp, placed)
         loose = grasp + c.loosen * (PREGRASP - grasp)
         for finger, side in zip(("index", "middle", "ring", "pinky"), (1, 0, -1, -2)):
             loose[JOINTS.index(f"{finger}_mcp_abd")] += side * np.radians(c.loosen_spread_deg)
-        then(c.loosen_s, loose, placed, look="place")
+        then(c.loosen_s, loose, placed, look="place" if c.carry == 1.0 else None)
         then(c.open_s, PREGRASP, placed, react=False)
         then(c.lift_s, opened, away)
-        end = max(keys[-1][0], env.config.episode_s) + 1.0
+        end = max(keys[-1][0], env.config.episode_s - env.t) + 1.0
         keys.append((end, opened, away))
         times, poses, positions = zip(*keys)
         return RelocateMotion(
@@ -148,8 +223,12 @@ class RelocateDemonstrator:
             rng,
             c.rate_hz,
             palm_pos=np.array(positions),
-            checks=checks,
+            tremor_deg=c.tremor_deg,
+            checks=checks if c.carry == 1.0 else [],
             carry=shift,
             lower=float(lifted[2] - placed[2]),
             land_m=c.land_m,
+            aim=None if held else (*lies, reached),
+            planner=self,
+            seed=0 if seed is None else int(seed),
         )

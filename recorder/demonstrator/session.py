@@ -41,6 +41,10 @@ class SessionMotion(DemoMotion):
         with self._lock:
             return super().revise(at_s, duration_s, palm_delta, move, pose_delta)
 
+    def splice(self, at_s: float, plan: DemoMotion) -> float:
+        with self._lock:
+            return super().splice(at_s, plan)
+
     def next_block(self, n: int):
         with self._lock:
             return super().next_block(n)

@@ -99,8 +99,10 @@ def run_episode(
     demonstrator=None,
     on_step=None,
     camera=None,
+    push=None,
 ) -> dict:
-    """One demonstration on ``env`` (reset with ``seed``); returns success, steps and retarget error."""
+    """One demonstration on ``env`` (reset with ``seed``); returns success, steps and retarget error. ``push``: (time
+    s, offset (x, y) m): the object displaced by that much then (``displace_object``), mid-take."""
     obs, info = env.reset(seed=seed)
     u = env.unwrapped
     demo = demonstrator or make_demonstrator(u.task_name)
@@ -129,6 +131,9 @@ def run_episode(
         action, rinfo = retargeter(angles, palm, palm_pos)
         errors.append(rinfo["tip_error_mean"])
         obs, reward, terminated, truncated, info = env.step(action)
+        if push is not None and u.t >= push[0]:
+            u.displace_object(push[1])
+            push = None
         motion.watch(u)
         steps += 1
         if on_step is not None:
@@ -146,10 +151,23 @@ def run_episode(
     }
 
 
+PUSH_S = (0.4, 0.9)  # when a take's object is pushed: during the reach, before the hand is over it
+
+
+def pushed(seed: int, cm) -> tuple:
+    """The push of take ``seed``: (time s, offset (x, y) m), ``cm`` (low, high) far in a random direction."""
+    rng = np.random.default_rng([seed, 0x9054])
+    angle, r = rng.uniform(0, 2 * np.pi), rng.uniform(*cm) / 100
+    return float(rng.uniform(*PUSH_S)), (r * np.cos(angle), r * np.sin(angle))
+
+
 def success_rate(
     task: str, robot: str, episodes: int, via: str = "direct", mode: str = "joint", seed0: int = 0,
-    demonstrator: str = "scripted", failure_rate: float | None = None, watches: bool = True, **env_kwargs,
+    demonstrator: str = "scripted", failure_rate: float | None = None, watches: bool = True, push_cm=None,
+    **env_kwargs,
 ) -> dict:  # fmt: skip
+    """The demonstrator's success over ``episodes`` seeds from ``seed0``; ``push_cm`` (low, high): each take's object
+    displaced that far mid-take (``pushed``)."""
 
     rig = Rig(
         SessionConfig(task=task, robot=robot, retarget=mode),
@@ -164,7 +182,8 @@ def success_rate(
     camera = None
     if via == "glove+marker":
         camera = EmulatedCamera()
-    runs = [run_episode(env, r, seed0 + k, via, demonstrator=rig.demonstrator, camera=camera) for k in range(episodes)]
+    runs = [run_episode(env, r, seed0 + k, via, demonstrator=rig.demonstrator, camera=camera,
+                        push=None if push_cm is None else pushed(seed0 + k, push_cm)) for k in range(episodes)]  # fmt: skip
     rig.close()
     if camera is not None:
         camera.close()
@@ -197,11 +216,13 @@ def main(argv=None) -> None:
     p.add_argument("--demonstrator", choices=("scripted", "human"), default="scripted")
     p.add_argument("--failure-rate", type=float, help="--demonstrator human: the share of failed takes (0.15)")
     p.add_argument("--open-loop", action="store_true", help="the wearer never looks at the robot hand (grasp, pinch)")
+    p.add_argument("--push-cm", type=float, nargs=2, metavar=("LOW", "HIGH"),
+                   help="each take's object pushed this far mid-take (relocate: during the reach)")  # fmt: skip
     p.add_argument("--brief", action="store_true", help="leave out the per-episode runs")
     args = p.parse_args(argv)
     free = {"base_position": True} if args.free_wrist else {}
     out = success_rate(args.task, args.robot, args.episodes, args.via, args.retarget, args.seed, args.demonstrator,
-                       args.failure_rate, not args.open_loop, **free)  # fmt: skip
+                       args.failure_rate, not args.open_loop, args.push_cm, **free)  # fmt: skip
     if args.brief:
         out.pop("runs")
     print(json.dumps(out))

@@ -182,8 +182,9 @@ def success_rate(
     camera = None
     if via == "glove+marker":
         camera = EmulatedCamera()
-    runs = [run_episode(env, r, seed0 + k, via, demonstrator=rig.demonstrator, camera=camera,
-                        push=None if push_cm is None else pushed(seed0 + k, push_cm)) for k in range(episodes)]  # fmt: skip
+    seeds = range(seed0, seed0 + episodes)
+    runs = [run_episode(env, r, seed, via, demonstrator=rig.demonstrator, camera=camera,
+                        push=None if push_cm is None else pushed(seed, push_cm)) for seed in seeds]  # fmt: skip
     rig.close()
     if camera is not None:
         camera.close()

@@ -16,7 +16,7 @@ from recorder.record.sidecar import read_sidecar
 from recorder.rig.rollout import success_rate
 
 
-@pytest.mark.parametrize("task", ["grasp", "pinch", "pose", "keys", "turn"])
+@pytest.mark.parametrize("task", ["grasp", "pinch", "pose", "keys", "turn", "relocate"])
 @pytest.mark.parametrize("rate", [0.15, 0.4])
 def test_the_share_of_failed_takes_follows_the_setting(task, rate):
     """Over 50 takes (whether a take is meant to fail is drawn from the plan's seed alone: ``meant_failure`` says so
@@ -30,7 +30,8 @@ def test_the_share_of_failed_takes_follows_the_setting(task, rate):
         assert (demo.plan(env, seed=int(seed)).intent["failure"] is not None) == meant[seed], seed
 
 
-@pytest.mark.parametrize(("task", "good_of_6"), [("grasp", 5), ("pinch", 4), ("pose", 6), ("keys", 6), ("turn", 6)])
+@pytest.mark.parametrize(("task", "good_of_6"), [("grasp", 5), ("pinch", 4), ("pose", 6), ("keys", 6), ("turn", 6),
+                                                  ("relocate", 6)])  # fmt: skip
 def test_meant_failures_fail_and_the_other_takes_succeed(task, good_of_6):
     failing = success_rate(task, "glovehand", 6, demonstrator="human", failure_rate=1.0)
     assert failing["successes"] == 0, [r["intent"] for r in failing["runs"]]
@@ -43,7 +44,7 @@ def test_meant_failures_fail_and_the_other_takes_succeed(task, good_of_6):
 
 STRATEGIES = {"grasp": {"together", "thumb first"}, "pinch": {"together", "thumb first"},
               "pose": {"together", "thumb last"}, "keys": {"quick taps", "deliberate presses"},
-              "turn": {"one sweep", "two sweeps"}}  # fmt: skip
+              "turn": {"one sweep", "two sweeps"}, "relocate": {"together", "thumb first"}}  # fmt: skip
 
 
 def test_it_moves_as_people_do_not_as_the_script():
@@ -79,8 +80,6 @@ def test_record_with_the_human_demonstrator_keeps_what_it_meant(tmp_path):
 @pytest.mark.parametrize(
     ("args", "says"),
     [
-        (["--task", "relocate", "--demonstrator", "human"], "task 'relocate' has no human-like demonstrator yet"),
-        (["--task", "grasp", "--demonstrator", "human", "--wrist", "udp:9"], "moves the fingers only"),
         (["--glove", "serial:/dev/null", "--demonstrator", "human"], "record with --glove emulator"),
         (["--demonstrator", "human", "--failure-rate", "2"], "failure rate 2: expected a share from 0 to 1"),
         (["--demonstrator", "robot"], "--demonstrator"),

@@ -421,6 +421,11 @@ class HandEnv(gym.Env):
         """What the operator should do now, in a few words, for the live view (None: its schedule's next move)."""
         return None
 
+    def failure(self) -> str | None:
+        """Why the take has not succeeded, as it stands now, in a few words ("dropped in the carry"), for a failed
+        episode's record; None where the task does not say."""
+        return None
+
     def show_state(self, environment_state: np.ndarray) -> None:
         """Show in this scene's looks what ``environment_state`` (another copy's) says that they change with: the
         live views keep a copy of the task that follows the recording's frames (default: nothing to show)."""

@@ -161,6 +161,7 @@ class HandGraspEnv(HandEnv):
         xy = rng.uniform(-cfg.placement_m, cfg.placement_m, 2)
         yaw = rng.uniform(-np.pi, np.pi) if shape != "sphere" else 0.0
         self.object_start = np.array([xy[0], xy[1], half[2]])
+        self._top = 0.0  # the object's highest rise this episode
         d.qpos[qadr : qadr + 7] = [*self.object_start, np.cos(yaw / 2), 0, 0, np.sin(yaw / 2)]
         self._object = (body, geom, qadr)
 
@@ -227,7 +228,14 @@ class HandGraspEnv(HandEnv):
             return False
         return bool(self.object_pose()[2] - self.object_start[2] < 0.25 * self.config.lift_m)
 
+    def failure(self) -> str | None:
+        rise, bodies = self.object_pose()[2] - self.object_start[2], self.hand_contacts(self._object[1])
+        if rise < 0.5 * self.config.lift_m:
+            return f"dropped after a {100 * self._top:.0f} cm lift" if self._top > 0.01 else "not lifted"
+        return None if bodies >= 2 else f"lifted, but held by {bodies} hand bod{'y' if bodies == 1 else 'ies'}"
+
     def _evaluate(self):
+        self._top = max(self._top, float(self.object_pose()[2] - self.object_start[2]))  # (why a take failed)
         held = self.held()
         end = self.t >= self.config.episode_s - 1e-9
         return held and end, end, float(held)

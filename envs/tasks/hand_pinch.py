@@ -229,6 +229,7 @@ class HandPinchEnv(HandEnv):
         xy = rng.uniform(-cfg.placement_m, cfg.placement_m, 2)
         yaw = np.radians(rng.uniform(-cfg.yaw_deg, cfg.yaw_deg)) if shape == "cube" else 0.0
         self.object_start = np.array([xy[0], xy[1], half[2]])
+        self._top = 0.0  # the object's highest rise this episode
         d.qpos[qadr : qadr + 7] = [*self.object_start, np.cos(yaw / 2), 0, 0, np.sin(yaw / 2)]
         self._object = (body, geom, qadr)
 
@@ -281,7 +282,18 @@ class HandPinchEnv(HandEnv):
         want = {self._distal["thumb"], self._distal[self.finger]}
         return bool(lifted and self.touching() == want)
 
+    def failure(self) -> str | None:
+        if self.object_pose()[2] - self.object_start[2] < 0.5 * self.config.lift_m:
+            return f"dropped after a {100 * self._top:.0f} cm lift" if self._top > 0.01 else "not lifted"
+        names = {b: self.model.body(b).name for b in self.touching()}
+        want = {self._distal["thumb"]: "thumb", self._distal[self.finger]: self.finger}
+        missing, extra = [n for b, n in want.items() if b not in names], [n for b, n in names.items() if b not in want]
+        if missing:
+            return f"lifted without the {' and '.join(missing)} pad"
+        return f"lifted with {', '.join(extra)} too" if extra else None
+
     def _evaluate(self):
+        self._top = max(self._top, float(self.object_pose()[2] - self.object_start[2]))  # (why a take failed)
         ok = self.pinched()
         end = self.t >= self.config.episode_s - 1e-9
         return ok and end, end, float(ok)

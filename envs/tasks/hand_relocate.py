@@ -108,6 +108,16 @@ class HandRelocateEnv(HandGraspEnv):
     def dropped(self) -> bool:
         return False
 
+    def failure(self) -> str | None:
+        off = float(np.linalg.norm(self.object_pose()[:2] - self.target))
+        if not self.resting():
+            return "still held up" if self.hand_contacts(self._object[1]) else "not resting on the table"
+        if off >= self.config.target_radius_m:
+            moved = float(np.linalg.norm(self.object_pose()[:2] - self.object_start[:2]))
+            where = "never moved" if moved < 0.02 else f"put down {100 * off:.1f} cm from the circle's centre"
+            return where
+        return None if self._inside_since is not None else "in the circle too briefly"
+
     def _evaluate(self):
         cfg = self.config
         inside = self.inside()

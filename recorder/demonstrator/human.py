@@ -37,6 +37,7 @@ from recorder.demonstrator.keys import KeysDemoConfig, KeysDemonstrator
 from recorder.demonstrator.motion import DemoMotion
 from recorder.demonstrator.pinch import PinchDemonstrator
 from recorder.demonstrator.pose import PoseDemoConfig, PoseDemonstrator
+from recorder.demonstrator.relocate import RelocateDemoConfig, RelocateDemonstrator
 from recorder.demonstrator.turn import TurnDemoConfig, TurnDemonstrator
 from recorder.hand.gestures import GESTURES
 from recorder.hand.kinematics import JOINTS
@@ -322,5 +323,44 @@ class HumanTurnDemonstrator(MeantFailures):
         return m
 
 
+class HumanRelocateDemonstrator(MeantFailures):
+    """HandRelocate as a person does it with a free wrist: each move a reaction time after the last (drawn per take),
+    the reach, closing, lift, carry and lowering each at a person's varying speed, aimed and placed with a person's
+    spread (``aim_mm``, ``place_mm``: endpoint spread grows with the speed and length of the move, Schmidt et al.
+    1979; 5 and 8 mm here for 10-20 cm reaches in about a second), a person's tremor; watching where the object sits
+    in the hand and nudging it into the circle, and re-planning from where things are when the object is not where
+    they reach (as the scripted wearer). Two strategies: the fingers together or the thumb first. The mistakes: a
+    grip "too loose" (the object slips out in the carry) or "misplaces" (the carry stops short of the circle, and
+    the wearer lets go without looking)."""
+
+    task = "relocate"
+    kinds = ("too loose", "misplaces")
+
+    def __init__(self, human: HumanConfig = HumanConfig(), config: RelocateDemoConfig = RelocateDemoConfig()):
+        self.human, self.config = human, config
+
+    def plan(self, env, seed: int | None = None, start=None) -> DemoMotion:
+        env, h, c = env.unwrapped, self.human, self.config
+        rng, sub, fails, strategy, r = take(seed, h, self.kinds, ("together", "thumb first"))
+        spans = {name: (duration(rng, h, getattr(c, name)),) * 2
+                 for name in ("reach_s", "descend_s", "close_s", "lift_s", "carry_s", "lower_s", "open_s")}  # fmt: skip
+        config = replace(c, reaction_s=(r - 0.05, r + 0.05), aim_mm=h.aim_mm, place_mm=h.place_mm,
+                         tremor_deg=h.tremor_deg, **spans)  # fmt: skip
+        if fails == "too loose":
+            config = replace(config, grip=h.loose)
+        elif fails == "misplaces":
+            config = replace(config, carry=h.short_carry)
+        # its re-plans (the object not where it reaches) come from the same person: this take's draws and mistake
+        m = RelocateDemonstrator(config).plan(env, seed=int(sub.integers(2**31)), start=start)
+        edits = []
+        if strategy == "thumb first":  # the fingers' second move is the closing (the first opens them to reach)
+            k = int(np.flatnonzero(np.any(m.poses[1:] != m.poses[:-1], axis=1))[1]) + 1
+            staged(m, float(m.times[k - 1]), float(m.times[k]), thumb_first=True)
+            edits.append(f"thumb first at {m.times[k - 1]:.2f} s")
+        m.intent = {"demonstrator": "human", "strategy": strategy, "failure": fails, "edits": edits}
+        return m
+
+
 HUMAN = {"grasp": HumanGraspDemonstrator, "pinch": HumanPinchDemonstrator, "pose": HumanPoseDemonstrator,
-         "keys": HumanKeysDemonstrator, "turn": HumanTurnDemonstrator}  # fmt: skip
+         "keys": HumanKeysDemonstrator, "turn": HumanTurnDemonstrator,
+         "relocate": HumanRelocateDemonstrator}  # fmt: skip

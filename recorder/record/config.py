@@ -17,7 +17,6 @@ from recorder.paths import recordings_dir
 from recorder.record import precedence
 from recorder.rig.config import SessionConfig
 from recorder.view.config import View, view_setting
-from recorder.wrist.config import SCRIPTED
 
 REPO_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*/[A-Za-z0-9][A-Za-z0-9._-]*$")
 CAMERAS = ("front", "top", "side")
@@ -137,9 +136,6 @@ class RecordConfig(SessionConfig):
                 raise cfg.ConfigError(f"--demonstrator {self.demonstrator} is the emulated wearer: record with "
                                       "--glove emulator")  # fmt: skip
             make_demonstrator(self.task, self.demonstrator, self.failure_rate)  # a task without one: one line
-            if self.wrist_config.kind != SCRIPTED:
-                raise cfg.ConfigError(f"--demonstrator {self.demonstrator} moves the fingers only: record without "
-                                      "--wrist")  # fmt: skip
         if self.takeover and self.policy is None:
             raise cfg.ConfigError("--takeover passes control from a policy to the wearer: pass --policy DIR too")
         if self.dart and self.policy is not None:

@@ -22,9 +22,12 @@ _START = "stats/time.device_s/min"  # lerobot's per-episode stats column of the 
 
 
 def episode_notes(record: dict) -> list[str]:
-    """What a person should know of an episode beyond its success, from its record: how much a takeover's wearer
-    drove, and where MuJoCo reset a blown-up simulation (the saved line, inspect and review say the same)."""
+    """What a person should know of an episode beyond its success, from its record: why it failed (as its task
+    saw the end), how much a takeover's wearer drove, and where MuJoCo reset a blown-up simulation (the saved line,
+    inspect and review say the same)."""
     notes = []
+    if record.get("failed_because"):
+        notes.append(f"failed: {record['failed_because']}")
     wearer = (record.get("takeover") or {}).get("frames_by_wearer")
     if wearer is not None:
         notes.append(f"the wearer drove {wearer} frames")

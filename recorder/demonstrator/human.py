@@ -352,6 +352,8 @@ class HumanRelocateDemonstrator(MeantFailures):
             config = replace(config, carry=h.short_carry)
         # its re-plans (the object not where it reaches) come from the same person: this take's draws and mistake
         m = RelocateDemonstrator(config).plan(env, seed=int(sub.integers(2**31)), start=start)
+        if fails:
+            m.replans = 0  # a careless take: the object let slip is not gone back for
         edits = []
         if strategy == "thumb first":  # the fingers' second move is the closing (the first opens them to reach)
             k = int(np.flatnonzero(np.any(m.poses[1:] != m.poses[:-1], axis=1))[1]) + 1

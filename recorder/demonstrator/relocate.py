@@ -71,8 +71,10 @@ class RelocateMotion(DemoMotion):
         self.lower = lower  # how far the plan lowers the object after the carry (m; None: not looked at)
         self.land_m = land_m  # where the lowering should leave the object's bottom, above where it started
         self.nudge_m = nudge_mm * 1e-3
-        self.aim = None if aim is None else np.asarray(aim, float)  # (x, y, until_s): where the reach goes for the
-        self.planner, self.seed, self.replanned = planner, seed, 0  # object, until the hand is over it
+        # (x, y, reached_s, held_s, placed_s): where the reach goes for the object, when the hand is over it, and
+        # from when until when the plan has it in the hand
+        self.aim = None if aim is None else np.asarray(aim, float)
+        self.planner, self.seed, self.replanned = planner, seed, 0
         self._last_seen = None
 
     def watch(self, env, into=None) -> None:
@@ -100,15 +102,21 @@ class RelocateMotion(DemoMotion):
         if into is not self:
             self.revise(at, took, move=move)  # this plan's own copy, when the performer made it
         self.checks = [(a + took, b + took, k) for a, b, k in self.checks]
+        if self.aim is not None:
+            self.aim[2:] += np.where(self.aim[2:] > at, took, 0.0)
 
     def _displaced(self, env) -> bool:
-        """The object lies, at rest, away from where the reach goes for it (before the grasp)."""
+        """The object lies, at rest, away from where the reach goes for it (before the hand is over it), or out of
+        the hand while the plan carries it (it slipped out, or a policy driving before a takeover knocked it)."""
         pose = env.object_pose()[:3]
         still = self._last_seen is not None and np.linalg.norm(pose - self._last_seen) < 2e-4  # < 6 mm/s at 30 Hz
         self._last_seen = pose
-        if self.planner is None or self.aim is None or self.replanned >= self.replans or env.t >= self.aim[2]:
+        if self.planner is None or self.aim is None or self.replanned >= self.replans or not still:
             return False
-        return still and float(np.linalg.norm(pose[:2] - self.aim[:2])) > self.moved_m
+        reached, held, placed = self.aim[2:]
+        if env.t < reached:
+            return float(np.linalg.norm(pose[:2] - self.aim[:2])) > self.moved_m
+        return held < env.t < placed and not in_hand(env)
 
     def _replan(self, env, into) -> None:
         """Plan again from the hand and the object as they are, at the plan's next pause (a person finishes the
@@ -138,7 +146,7 @@ class RelocateMotion(DemoMotion):
             self.splice(done, fresh)
         self.checks = [(a + done, b + done, kind) for a, b, kind in fresh.checks]
         self.carry, self.lower, self.land_m = fresh.carry, fresh.lower, fresh.land_m
-        self.aim = fresh.aim + [0.0, 0.0, done]
+        self.aim = None if fresh.aim is None else fresh.aim + [0.0, 0.0, done, done, done]
 
 
 def in_hand(env) -> bool:
@@ -177,8 +185,8 @@ class RelocateDemonstrator:
         shift = (env.target - lies + rng.normal(0, c.place_mm * 1e-3, 2)) * c.carry
         opened = GESTURES["open"]
         pose, pos = (opened, env._base_target(0.0)[0]) if start is None else (np.asarray(start[0]), start[1])
-        held = start is not None and in_hand(env)
-        if held:  # carried on from where the hand holds it
+        carried = start is not None and in_hand(env)
+        if carried:  # carried on from where the hand holds it
             lifted = np.array([pos[0], pos[1], max(pos[2], lifted[2])])
         over_target = lifted + [*shift, 0]
         placed = np.array([*over_target[:2], at_object[2] + 0.004])
@@ -194,7 +202,7 @@ class RelocateDemonstrator:
                 checks.append((keys[-2][0], t, look))
             keys.append((t + (took(span) if isinstance(span, tuple) else span), pose, pos))
 
-        if not held:
+        if not carried:
             clear = at_object[2] + c.approach_m
             if start is not None and pos[2] < clear - 1e-3:  # up first, clear of the object, then over it
                 then(c.lift_s, PREGRASP, [*pos[:2], clear + 0.01])
@@ -206,7 +214,9 @@ class RelocateDemonstrator:
             then(c.lift_s, grasp, lifted, react=False)
         else:
             grasp, reached = pose, 0.0
+        held = keys[-1][0]  # from here the object should be in the hand, ...
         then(c.carry_s, grasp, over_target, look="carry")
+        put = keys[-1][0]  # ... until it is lowered
         then(c.lower_s, grasp, placed)
         loose = grasp + c.loosen * (PREGRASP - grasp)
         for finger, side in zip(("index", "middle", "ring", "pinky"), (1, 0, -1, -2)):
@@ -228,7 +238,7 @@ class RelocateDemonstrator:
             carry=shift,
             lower=float(lifted[2] - placed[2]),
             land_m=c.land_m,
-            aim=None if held else (*lies, reached),
+            aim=(*lies, reached, held, put),
             planner=self,
             seed=0 if seed is None else int(seed),
         )

@@ -396,19 +396,23 @@ class HandEnv(gym.Env):
                     bodies.add(int(m.geom_bodyid[b]))
         return bodies
 
-    def distal_gaps(self, geom: int, reach_m: float = 0.05) -> dict[str, float]:
-        """Per finger (thumb first), the gap (m) between its distal segment's surface and ``geom``'s: negative where
-        they press into each other, at most ``reach_m``. What an operator watching the robot hand judges when they
-        close it on an object (recorder/demonstrator/watching.py)."""
+    def distal_gaps(self, geom: int, reach_m: float = 0.05) -> dict[str, tuple[float, np.ndarray]]:
+        """Per finger (thumb first): the gap (m) between its distal segment's surface and ``geom``'s (negative where
+        they press into each other, at most ``reach_m``) and the vector (3, m, world) from the segment's nearest
+        point to the object's. What an operator watching the robot hand sees when they close it on an object
+        (recorder/demonstrator/watching.py)."""
         m, d = self.model, self.data
         colliding = (m.geom_contype != 0) | (m.geom_conaffinity != 0)
-        return {
-            f: min(
-                (mujoco.mj_geomDistance(m, d, int(g), geom, reach_m, None) for g in geoms if colliding[g]),
-                default=reach_m,
-            )  # fmt: skip
-            for f, geoms in self._distal_geoms.items()
-        }
+        out, fromto = {}, np.zeros(6)
+        for f, geoms in self._distal_geoms.items():
+            best = (reach_m, np.zeros(3))
+            for g in geoms:
+                if colliding[g]:
+                    gap = mujoco.mj_geomDistance(m, d, int(g), geom, reach_m, fromto)
+                    if gap < best[0]:
+                        best = (float(gap), fromto[3:] - fromto[:3])
+            out[f] = best
+        return out
 
     def hand_contacts(self, geom: int) -> int:
         """How many distinct hand bodies touch ``geom``."""

@@ -83,5 +83,5 @@ def grip(env, rng: np.random.Generator, c, start, opened, closed, digits, **moti
     m = DemoMotion(times, poses, rng, c.rate_hz, **motion)
     if c.sight is not None:  # drawn after the plan's draws: the open-loop wearer's plan of a seed is the same
         sight_rng = np.random.default_rng(rng.integers(2**32))
-        m.watcher = GripWatcher(digits, closed - opened, t_close, t_closed, sight_rng, c.sight)
+        m.watcher = GripWatcher(digits, closed - opened, t_closed, sight_rng, c.sight)
     return m

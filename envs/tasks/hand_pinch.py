@@ -66,7 +66,7 @@ def pinch_angles(finger: str, p) -> np.ndarray:
 
 
 REFERENCE_GAP_MM = 16  # the pinch whose midpoint every other opening keeps
-REACH_WEIGHT = 10.0
+REACH_WEIGHT = 10.0  # a millimetre too deep costs what 3 mm of gap do (at 1 LEAP's pads stayed 1-2 mm too deep)
 
 
 @lru_cache(maxsize=512)
@@ -98,7 +98,7 @@ def robot_pinch(
         c = (gap - target) ** 2 + 0.5 * (t[j, 2] - t[0, 2]) ** 2
         if centre is not None:  # a 0.02 rad turn of the line costs what 1 mm off the centre does
             c += 0.5 * np.sum((mid - centre) ** 2) + 0.5 * 0.05**2 * np.sum((direction - line) ** 2)
-        if reach_mm is not None:  # a millimetre too deep costs what a millimetre of gap does, times REACH_WEIGHT
+        if reach_mm is not None:  # the pads' lowest point, how far below the pinch point (palm down: the table)
             bottom = min(postures.pad_bottom(robot, "thumb"), postures.pad_bottom(robot, finger))
             c += REACH_WEIGHT * max(0.0, mid[2] - bottom - reach_mm / 1000.0) ** 2
         return c

@@ -1,10 +1,10 @@
 """HandPinch demonstrator: the thumb and the named finger open a little wider than the object while the base
 descends (the other fingers straight, out of the way), then, once the base has stopped and after a human reaction
 time, close on it (minimum jerk) and keep pressing: the posture aims a few millimetres past contact, as a person
-squeezes a small object. The postures are the robot's pinch (envs.tasks.hand_pinch.robot_pinch): the operator
-watches the robot's fingertips, not their own, and keeps them off the table. Varies timing, aperture, squeeze and posture between demos. With a
-free wrist (the task's ``base_position``) the wearer also does the script's descent and lift
-(recorder/demonstrator/reach.py)."""
+squeezes a small object. The postures are the robot's pinch as the task searches it (``env.robot_pinch``: its pads
+clear of the table): the operator watches the robot's fingertips, not their own. Varies timing, aperture, squeeze
+and posture between demos. With a free wrist (the task's ``base_position``) the wearer also does the script's
+descent and lift (recorder/demonstrator/reach.py)."""
 
 from __future__ import annotations
 

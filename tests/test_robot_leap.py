@@ -115,3 +115,41 @@ def test_a_missing_or_impossible_wearer_is_one_line(tmp_path):
         err = r.stderr.strip()
         assert r.returncode == 1 and "\n" not in err and "Traceback" not in err and needle in err, err
         assert not (tmp_path / "ds").exists()  # refused before anything was written
+
+
+def test_leaps_pinch_keeps_its_pads_off_the_table():
+    # LEAP's distal links are about 20 mm thick: the pinch searched without the task's clearance left them resting
+    # on the table for 89 % of the close (seeds 0-2: 96 of 108 control steps), the thumb 9 degrees short of its
+    # target; with it, 3 of 108. (It does not yet hold the object through the lift: docs/envs.md says why.)
+    env = envs.make("pinch", "leap")
+    u = env.unwrapped
+    r = Retargeter("leap", "joint", base_rotation=u.config.base_rotation)
+    floor = u.model.geom("floor").id
+    closing, on_table = 0, 0
+
+    def on_step(obs, action, info):
+        nonlocal closing, on_table
+        if u.schedule["close"] <= u.t < u.schedule["lift"]:
+            pads = {*u._distal_geoms["thumb"], *u._distal_geoms[u.finger]}
+            contacts = u.data.contact[: u.data.ncon]
+            closing += 1
+            on_table += any(floor in (c.geom1, c.geom2) and {c.geom1, c.geom2} & pads for c in contacts)
+
+    for seed in (0, 1, 2):
+        run_episode(env, r, seed, on_step=on_step)
+    env.close()
+    assert closing > 0 and on_table <= 0.25 * closing, f"pads on the table {on_table} of {closing} steps"
+
+
+@pytest.mark.process
+def test_leap_records_two_pinch_episodes(tmp_path):
+    root = tmp_path / "ds"
+    r = gloverec(
+        "record", "--glove", "emulator", "--task", "pinch", "--robot", "leap", "--episodes", "2", "--root",
+        str(root), "--repo-id", "test/leap_pinch", "--seed", "0", "--fast", "--no-log", "--json", timeout=180,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr[-3000:]
+    summary = json.loads(r.stdout.strip().splitlines()[-1])
+    info = json.loads((root / "meta" / "info.json").read_text())
+    assert summary["episodes_saved"] == 2 and info["total_episodes"] == 2 and info["robot_type"] == "leap"
+    assert "pinch.finger.is_index" in info["features"]["observation.environment_state"]["names"]

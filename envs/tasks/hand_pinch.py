@@ -66,23 +66,31 @@ def pinch_angles(finger: str, p) -> np.ndarray:
 
 
 REFERENCE_GAP_MM = 16  # the pinch whose midpoint every other opening keeps
+REACH_WEIGHT = 10.0  # a millimetre too deep costs what 3 mm of gap do (at 1 LEAP's pads stayed 1-2 mm too deep)
 
 
 @lru_cache(maxsize=512)
-def robot_pinch(robot: str, finger: str, gap_mm: int, about_mm: int = REFERENCE_GAP_MM) -> tuple:
+def robot_pinch(
+    robot: str, finger: str, gap_mm: int, about_mm: int = REFERENCE_GAP_MM, reach_mm: int | None = None
+) -> tuple:
     """(posture parameters (6, deg), the pinch point (3, m, palm frame: the midpoint of the nearest points of the
     robot's thumb and ``finger`` pads), the gap reached (m), the pinch line (3, unit, thumb to finger)) for a gap of
     ``gap_mm`` between the two distal segments' surfaces (what an object between them must span); cached per robot,
     finger and mm. Every opening keeps the pinch point and line of the ``about_mm`` pinch (by default
     ``REFERENCE_GAP_MM``), so the fingertips open and close along one line through the object (not dragging it
-    sideways), and the pinch line level."""
+    sideways), and the pinch line level. ``reach_mm``: the two pads reach at most this far below the pinch point (a
+    pinch of a small object on a table must keep them off it; None: no bound)."""
     j = postures.retargeter(robot).fingers.index(finger)
     target = gap_mm / 1000.0
     if gap_mm == about_mm:  # the pinch to keep: its own midpoint, from the reference posture
         centre = line = None
-        start = _START[finger] if about_mm == REFERENCE_GAP_MM else robot_pinch(robot, finger, REFERENCE_GAP_MM)[0]
+        start = (
+            _START[finger]
+            if about_mm == REFERENCE_GAP_MM
+            else robot_pinch(robot, finger, REFERENCE_GAP_MM, reach_mm=reach_mm)[0]
+        )
     else:
-        anchor = robot_pinch(robot, finger, about_mm, about_mm)
+        anchor = robot_pinch(robot, finger, about_mm, about_mm, reach_mm)
         start, centre, line = anchor[0], np.array(anchor[1]), np.array(anchor[3])
 
     def cost(t):
@@ -90,6 +98,9 @@ def robot_pinch(robot: str, finger: str, gap_mm: int, about_mm: int = REFERENCE_
         c = (gap - target) ** 2 + 0.5 * (t[j, 2] - t[0, 2]) ** 2
         if centre is not None:  # a 0.02 rad turn of the line costs what 1 mm off the centre does
             c += 0.5 * np.sum((mid - centre) ** 2) + 0.5 * 0.05**2 * np.sum((direction - line) ** 2)
+        if reach_mm is not None:  # the pads' lowest point, how far below the pinch point (palm down: the table)
+            bottom = min(postures.pad_bottom(robot, "thumb"), postures.pad_bottom(robot, finger))
+            c += REACH_WEIGHT * max(0.0, mid[2] - bottom - reach_mm / 1000.0) ** 2
         return c
 
     p = postures.search(robot, np.zeros(len(JOINTS)), _joints(finger), start, cost)
@@ -98,10 +109,12 @@ def robot_pinch(robot: str, finger: str, gap_mm: int, about_mm: int = REFERENCE_
     return tuple(p), tuple(mid), gap, tuple(direction)
 
 
-def pinching_fingers(robot: str, fingers=FINGERS, tolerance_m: float = 0.004) -> tuple[str, ...]:
+def pinching_fingers(
+    robot: str, fingers=FINGERS, tolerance_m: float = 0.004, reach_mm: int | None = None
+) -> tuple[str, ...]:
     """The fingers of ``fingers`` whose tips this robot's thumb can close on (a gap under ``tolerance_m``)."""
     have = postures.retargeter(robot).fingers
-    return tuple(f for f in fingers if f in have and robot_pinch(robot, f, 0)[2] <= tolerance_m)
+    return tuple(f for f in fingers if f in have and robot_pinch(robot, f, 0, reach_mm=reach_mm)[2] <= tolerance_m)
 
 
 # --------------------------------------------------------------------------------------- the task
@@ -121,8 +134,9 @@ class HandPinchConfig(TaskConfig):
     yaw_deg: Annotated[float, NonNegative] = 15.0  # the cube's faces to the pinch line, uniform in ±
     misalignment_m: Annotated[float, NonNegative] = 0.003
     hover_m: Annotated[float, NonNegative] = 0.06
-    min_pinch_height_m: Annotated[float, NonNegative] = 0.011  # fingertips meet at least this high (their pads
-    # clear the table)
+    min_pinch_height_m: Annotated[float, NonNegative] = 0.011  # fingertips meet at least this high
+    pad_clearance_m: Annotated[float, NonNegative] = 0.001  # and the pinch posture keeps both pads this far above
+    # the table there (robot_pinch's reach_mm: LEAP's thick distal links otherwise rest on it)
     hover_s: Annotated[float, NonNegative] = 0.7  # phase durations: the hand shapes the pinch high above it
     lift_m: float = 0.08
     descend_s: Annotated[float, Positive] = 1.0
@@ -146,7 +160,9 @@ class HandPinchEnv(HandEnv):
 
     def __init__(self, robot: str = "glovehand", render_mode=None, config=None, **overrides):
         super().__init__(robot, render_mode, config, **overrides)
-        self.fingers = pinching_fingers(self.robot.config.name, self.config.fingers)
+        cfg = self.config
+        self.pad_reach_mm = int(round(1000 * (cfg.min_pinch_height_m - cfg.pad_clearance_m)))
+        self.fingers = pinching_fingers(self.robot.config.name, cfg.fingers, reach_mm=self.pad_reach_mm)
         if not self.fingers:
             raise ValueError(
                 f"pinch task: {self.robot.config.name}'s thumb reaches none of {', '.join(self.config.fingers)}"
@@ -234,7 +250,7 @@ class HandPinchEnv(HandEnv):
         self._object = (body, geom, qadr)
 
         # the base script: the robot's pinch point at the object's centre, palm down
-        point = robot_pinch(self.robot.config.name, self.finger, self.pinch_gap_mm())[1]
+        point = self.robot_pinch(self.pinch_gap_mm())[1]
         err = rng.uniform(-cfg.misalignment_m, cfg.misalignment_m, 2)
         height = max(self.object_start[2], cfg.min_pinch_height_m)
         self._grasp_pos = np.array([xy[0] + err[0], xy[1] + err[1], height]) - np.array(point)
@@ -246,6 +262,10 @@ class HandPinchEnv(HandEnv):
             self.schedule[phase] = t
             t += dur
         self.schedule["end"] = cfg.episode_s
+
+    def robot_pinch(self, gap_mm: int, finger: str | None = None) -> tuple:
+        """``robot_pinch`` for this robot and the named finger (or ``finger``), its pads clear of the table."""
+        return robot_pinch(self.robot.config.name, finger or self.finger, gap_mm, reach_mm=self.pad_reach_mm)
 
     def pinch_gap_mm(self) -> int:
         """The object's width between the fingertips, mm (the cube's and disc's across, the marble's diameter)."""

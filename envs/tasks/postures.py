@@ -72,6 +72,34 @@ def pad_gap(robot: str, a: str, b: str) -> tuple[float, np.ndarray, np.ndarray]:
     return float(best), mid, (line / n if n > 1e-9 else line) * np.sign(best if best != 0 else 1.0)
 
 
+def pad_bottom(robot: str, finger: str) -> float:
+    """The lowest point of ``finger``'s distal segment (m, palm frame z: dorsal up, so palm down it is the height
+    above whatever the pads must clear) at the robot's pose now (after ``robot_tips``): exact for MuJoCo's convex
+    primitives and meshes (a mesh's vertices), where a bounding box would add millimetres at a slant."""
+    r = retargeter(robot)
+    m, d = r.model, r.data
+    lowest = np.inf
+    for g in _pad_geoms(robot, finger):
+        kind, size, c = m.geom_type[g], m.geom_size[g], d.geom_xpos[g]
+        up = d.geom_xmat[g].reshape(3, 3)[2]  # the geom's axes' palm-frame z components
+        if kind == mujoco.mjtGeom.mjGEOM_MESH:
+            mesh = m.geom_dataid[g]
+            first = m.mesh_vertadr[mesh]
+            reach = -np.min(m.mesh_vert[first : first + m.mesh_vertnum[mesh]] @ up)
+        elif kind == mujoco.mjtGeom.mjGEOM_SPHERE:
+            reach = size[0]
+        elif kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
+            reach = abs(up[2]) * size[1] + size[0]
+        elif kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
+            reach = abs(up[2]) * size[1] + size[0] * np.sqrt(max(0.0, 1.0 - up[2] ** 2))
+        elif kind == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
+            reach = np.linalg.norm(size * up)
+        else:  # a box
+            reach = np.abs(up) @ size
+        lowest = min(lowest, c[2] - reach)
+    return float(lowest)
+
+
 def search(robot: str, base, joints, start, cost, maxiter: int = 300) -> np.ndarray:
     """The values (degrees) of ``joints`` that minimise ``cost(tips)`` (tips: robot fingertips (n, 3), palm frame,
     m; the robot is left at that pose, for ``pad_gap``), from ``start``, within the human limits; a small pull

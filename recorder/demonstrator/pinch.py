@@ -1,10 +1,10 @@
 """HandPinch demonstrator: the thumb and the named finger open a little wider than the object while the base
 descends (the other fingers straight, out of the way), then, once the base has stopped and after a human reaction
 time, close on it (minimum jerk) and keep pressing: the posture aims a few millimetres past contact, as a person
-squeezes a small object. The postures are the robot's pinch (envs.tasks.hand_pinch.robot_pinch): the operator
-watches the robot's fingertips, not their own. Varies timing, aperture, squeeze and posture between demos. With a
-free wrist (the task's ``base_position``) the wearer also does the script's descent and lift
-(recorder/demonstrator/reach.py)."""
+squeezes a small object. The postures are the robot's pinch as the task searches it (``env.robot_pinch``: its pads
+clear of the table): the operator watches the robot's fingertips, not their own. Varies timing, aperture, squeeze
+and posture between demos. With a free wrist (the task's ``base_position``) the wearer also does the script's
+descent and lift (recorder/demonstrator/reach.py)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from envs.tasks.hand_pinch import pinch_angles, robot_pinch
+from envs.tasks.hand_pinch import pinch_angles
 from recorder.demonstrator.motion import DemoMotion
 from recorder.demonstrator.reach import grip
 from recorder.demonstrator.watching import SightConfig
@@ -54,10 +54,10 @@ class PinchDemonstrator:
         env = env.unwrapped
         c = self.config
         rng = np.random.default_rng(seed)
-        robot, finger, width = env.robot.config.name, finger or env.finger, env.pinch_gap_mm()
-        open_p = robot_pinch(robot, finger, width + int(rng.integers(c.aperture_mm[0], c.aperture_mm[1] + 1)))[0]
-        lo, hi = c.squeeze_for(robot)
-        closed_p = robot_pinch(robot, finger, max(0, width - int(rng.integers(lo, hi + 1))))[0]
+        finger, width = finger or env.finger, env.pinch_gap_mm()
+        open_p = env.robot_pinch(width + int(rng.integers(c.aperture_mm[0], c.aperture_mm[1] + 1)), finger)[0]
+        lo, hi = c.squeeze_for(env.robot.config.name)
+        closed_p = env.robot_pinch(max(0, width - int(rng.integers(lo, hi + 1))), finger)[0]
         noise = np.clip(rng.normal(0, 1, 6), -2, 2) * c.pose_noise_deg
         start = GESTURES["open"]
         opened = pinch_pose(finger, np.array(open_p) + noise, start)

@@ -136,8 +136,10 @@ class GripWatcher:
         self.made.append(f"{why} at {at:.2f} s")
 
 
-DIGIT_JOINTS = {d: [k for k, n in enumerate(JOINTS) if n.startswith(f"{d}_") and not n.endswith("_dip")]
-                for d in ("thumb", "index", "middle", "ring", "pinky")}  # fmt: skip  (a DIP follows its PIP)
+DIGIT_JOINTS = {
+    d: [k for k, n in enumerate(JOINTS) if n.startswith(f"{d}_") and not n.endswith("_dip")]
+    for d in ("thumb", "index", "middle", "ring", "pinky")
+}  # fmt: skip  (a DIP follows its PIP)
 
 
 def steer(robot: str, pose, digit: str, to, c: SightConfig) -> np.ndarray:

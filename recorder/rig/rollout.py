@@ -28,7 +28,7 @@ from recorder import GloverecError
 from recorder.config import add_option
 from recorder.demonstrator import make_demonstrator
 from recorder.emulator.glove import SyntheticGlove
-from recorder.hand.kinematics import joint_angles_from_relative
+from recorder.hand.kinematics import JOINTS, joint_angles_from_relative
 from recorder.retarget import MODES
 from recorder.rig.config import SessionConfig
 from recorder.rig.rig import Rig, wrist_track, zero_wrist
@@ -42,8 +42,11 @@ class _GloveReader:
     """The demonstration as a glove host sees it: noisy pose frames at the glove rate, ``latency_s`` late, synthesised
     as time goes (a demonstrator that watches may revise what is still ahead)."""
 
-    def __init__(self, motion, seed: int, latency_s: float, noise_deg: float):
+    def __init__(self, motion, seed: int, latency_s: float, noise_deg: float, bias=None):
         self.rate = motion.rate_hz
+        self.bias = np.zeros(len(JOINTS))  # a fused pose's standing error, rad per joint (a joint name: degrees)
+        for name, deg in (bias or {}).items():
+            self.bias[JOINTS.index(name)] = np.radians(deg)
         self.glove = SyntheticGlove(motion, rate_hz=self.rate, seed=seed, pose_noise_deg=noise_deg)
         self.angles, self.palm = np.zeros((0, 20)), np.zeros((0, 4))
         self.latency = latency_s
@@ -55,7 +58,7 @@ class _GloveReader:
             block = self.glove.next_block(i + 1 - len(self.angles))
             self.angles = np.concatenate((self.angles, joint_angles_from_relative(block.pose.astype(float))))
             self.palm = np.concatenate((self.palm, block.pose[:, 0].astype(float)))
-        return self.angles[i], self.palm[i], self.motion.at([i / self.rate]).palm_pos[0]
+        return self.angles[i] + self.bias, self.palm[i], self.motion.at([i / self.rate]).palm_pos[0]
 
 
 class _TrackedWrist:
@@ -100,16 +103,20 @@ def run_episode(
     on_step=None,
     camera=None,
     push=None,
+    bias=None,
 ) -> dict:
     """One demonstration on ``env`` (reset with ``seed``); returns success, steps and retarget error. ``push``: (time
-    s, offset (x, y) m): the object displaced by that much then (``displace_object``), mid-take."""
+    s, offset (x, y) m): the object displaced by that much then (``displace_object``), mid-take. ``bias`` ({joint
+    name: degrees}, via glove): a standing error in the angles the host reads, as the fused thumb's (its abduction
+    is a heading the glove's accelerometers cannot see: 7-14 degrees off in some takes through the whole
+    recording path)."""
     obs, info = env.reset(seed=seed)
     u = env.unwrapped
     demo = demonstrator or make_demonstrator(u.task_name)
     motion = demo.plan(u, seed=seed)
     retargeter.reset()
     if via == "glove":
-        read = _GloveReader(motion, seed, latency_s, noise_deg)
+        read = _GloveReader(motion, seed, latency_s, noise_deg, bias)
     elif via == "glove+marker":
         if camera is None:
             camera = EmulatedCamera()

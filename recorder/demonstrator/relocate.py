@@ -153,3 +153,14 @@ class RelocateDemonstrator:
             lower=float(lifted[2] - placed[2]),
             land_m=c.land_m,
         )
+
+
+def over_object(robot, start, half, shape: str, rng: np.random.Generator, c: RelocateDemoConfig) -> np.ndarray:
+    """Where the palm frame goes to grasp an object (centre ``start``, half extents ``half``, ``shape``) that rests on
+    the table, as ``RelocateDemonstrator.plan`` aims: the robot's grasp point just above its top, ``c.aim_mm`` off,
+    and on a ball's top rather than above it. For other tasks' demonstrators (recorder/demonstrator/pick.py)."""
+    at = np.array([*(np.asarray(start)[:2] + aim_error(rng, c.aim_mm)), 2 * half[2] + 0.003])
+    at -= np.array(robot.config.grasp_point)
+    if shape == "sphere":
+        at[2] -= 0.003 + c.palm_on_ball_m
+    return at

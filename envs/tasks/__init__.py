@@ -1,6 +1,6 @@
 """Tasks by name, from the task registry (envs/tasks/registry.py): ``pose`` (HandPose), ``grasp`` (HandGrasp),
-``pinch`` (HandPinch), ``keys`` (HandKeys), ``turn`` (HandTurn),
-``relocate`` (HandRelocate, a free wrist) and ``pick`` (HandPick, a free wrist, two objects) built in, more from plugins;
+``pinch`` (HandPinch), ``keys`` (HandKeys), ``turn`` (HandTurn), ``relocate`` (HandRelocate, a free wrist) and
+``pick`` (HandPick, a free wrist, two objects) built in, more from plugins;
 ``make_task(name, robot)`` builds one."""
 
 from __future__ import annotations

@@ -86,7 +86,9 @@ class HandPickEnv(HandEnv):
         if not cfg.targets or not cfg.shapes:
             raise ConfigError("pick task: targets and shapes need at least one entry each")
         if 2 * cfg.placement_m[1] < cfg.separation_y_m:
-            raise ConfigError(f"pick task: separation_y_m {cfg.separation_y_m:g} does not fit in ±{cfg.placement_m[1]:g} m")
+            raise ConfigError(
+                f"pick task: separation_y_m {cfg.separation_y_m:g} does not fit in ±{cfg.placement_m[1]:g} m"
+            )
         self.target = cfg.targets[0]
         self.objects = {c: PickObject(SHAPES[0], np.full(3, 0.03), np.zeros(3)) for c in COLOURS}
         self._held_since = None
@@ -227,4 +229,3 @@ class HandPickEnv(HandEnv):
 
     def instructions(self) -> tuple[str, ...]:
         return tuple(f"pick up the {c} one" for c in self.config.targets)
-

@@ -50,7 +50,7 @@ class HandPickConfig(TaskConfig):
     sphere_radius: Range = HandGraspConfig.sphere_radius
     mass_kg: Range = HandGraspConfig.mass_kg
     friction: Range = HandGraspConfig.friction
-    placement_m: tuple[Annotated[float, NonNegative], Annotated[float, NonNegative]] = (0.10, 0.12)  # centres, ±x, ±y
+    placement_m: tuple[Annotated[float, NonNegative], Annotated[float, NonNegative]] = (0.15, 0.18)  # centres, ±x, ±y
     separation_y_m: Annotated[float, NonNegative] = 0.12  # the two centres at least this far apart in y
     home_m: Annotated[float, Positive] = 0.15  # the start: the robot's grasp point this high above the table's centre
     lift_m: Annotated[float, Positive] = 0.10

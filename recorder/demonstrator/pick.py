@@ -1,11 +1,14 @@
 """HandPick demonstrator: a person's reach for the object the instruction names. From the home pose, look at the
-table, reach over the target, come down onto it, close into the grasp sized for it, lift it and hold it up.
+table, reach over the target with the hand open, come down onto it shaping the grasp, close into the grasp sized
+for it, lift it and hold it up.
 
-The reach, the descent onto the object and the grasp are the relocate demonstrator's (recorder/demonstrator/
+The reach down, the descent onto the object and the grasp are the relocate demonstrator's (recorder/demonstrator/
 relocate.py: its timing config, its approach geometry through ``over_object``, a ball's palm on its top; the
 grasp postures from grasp.py), imported rather than copied, so both tasks are demonstrated alike. What it adds:
-a longer look before the reach (the target must be found first), and after the lift the person watches the
-object in the hand: if it hangs lower than meant (it slid in the grip), they lift by the difference once."""
+a look before the reach (the target must be found first); the travel from home with the hand open, above the
+taller object (the approach posture's thumb hangs 10 cm below the palm and swept objects off the table on its
+side); and after the lift the person watches the object in the hand: if it hangs lower than meant (it slid in
+the grip), they lift by the difference, once."""
 
 from __future__ import annotations
 
@@ -23,8 +26,9 @@ from recorder.hand.kinematics import JOINTS
 @dataclass(frozen=True)
 class PickDemoConfig(RelocateDemoConfig):
     look_s: tuple = (0.3, 0.5)  # before the reach: finding the named object on the table
-    over_s: tuple = (0.6, 0.85)  # from home to ``hover_m`` over the target (up to 16 cm away): high enough that
-    hover_m: float = 0.08  # the thumb, below the palm, passes over the objects' tops; then relocate's reach down
+    over_s: tuple = (0.6, 0.85)  # from home to ``hover_m`` over the target, the hand open (flat): clear of the
+    hover_m: float = 0.08  # taller object's top (the approach posture's thumb hangs 10 cm below the palm: it would
+    # sweep the objects on the way), then relocate's reach down, shaping the approach posture
     lift_m: float = 0.10  # the task's lift_m: the object held well above half of it
     sag_mm: float = 15.0  # after the lift, an object this much lower than planned is lifted again by that much
 
@@ -78,6 +82,8 @@ class PickDemonstrator:
         home, _ = env._base_target(0.0)
         at_object = over_object(env.robot, target.start, target.half, target.shape, rng, c)
         lifted = at_object + [0, 0, c.lift_m]
+        tallest = max(2 * o.half[2] for o in env.objects.values())
+        over = at_object + [0, 0, c.hover_m + tallest - 2 * target.half[2]]
         keys = [(0.0, GESTURES["open"], home)]
 
         def then(span, pose, pos, react=True) -> None:
@@ -86,7 +92,7 @@ class PickDemonstrator:
             keys.append((t + took(span), pose, pos))
 
         then(c.look_s, GESTURES["open"], home, react=False)
-        then(c.over_s, PREGRASP, at_object + [0, 0, c.hover_m])
+        then(c.over_s, GESTURES["open"], over)
         then(c.reach_s, PREGRASP, at_object + [0, 0, c.approach_m], react=False)
         then(c.descend_s, PREGRASP, at_object, react=False)
         then(c.close_s, grasp, at_object)

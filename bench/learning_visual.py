@@ -3,7 +3,7 @@ measures the state-input policies).
 
     .venv/bin/python bench/learning_visual.py [--robots glovehand,shadow] [--demos 100] [--curve 10,25,50,100]
         [--steps 3000] [--batch-size 64] [--image-size 84] [--eval-episodes 50] [--workers 2] [--data DIR]
-        [--parts main,blank,fist,pose,wrist,curve,dexterous,act,diffusion,workers] [--dexterous keys] [--reuse]
+        [--parts main,blank,fist,pose,wrist,pick,curve,dexterous,act,diffusion,workers] [--dexterous keys] [--reuse]
 
 For each robot, HandGrasp, with the gloverec commands a user runs (each in a child process):
   record DEMOS demonstrations with cameras front and top at SIZE x SIZE (emulated glove, scripted demonstrator,
@@ -17,6 +17,9 @@ For each robot, HandGrasp, with the gloverec commands a user runs (each in a chi
          gesture to make is only in the instruction)
   wrist  HandGrasp with a free wrist (--wrist scripted: the policy places the hand, so only the cameras say
          where the object is): default inputs, and with the images blanked
+  pick   HandPick (two objects, pick up the red or the blue one, a free wrist from a home pose), DEMOS
+         demonstrations: default inputs, and blind: the images blanked (--inputs state,task: the robot's joints and
+         palm and the instruction, no camera and no environment state, so where the named object lies is unknown)
   dexterous  each task of --dexterous (pinch, keys, turn), 50 demonstrations with the same cameras: default inputs,
          and with the images blanked (HandKeys: which key is lit is only in the scene)
   curve  images only (--inputs images), trained on the first K demonstrations, K in --curve
@@ -272,7 +275,7 @@ def main() -> None:
     p.add_argument("--act-steps", type=int, default=1000)
     p.add_argument("--diffusion-steps", type=int, default=1000)
     p.add_argument("--data", default="bench/results/visual_data", help="recordings and runs, kept between runs")
-    p.add_argument("--parts", default="main,blank,fist,pose,wrist,curve,dexterous,act,diffusion,workers")
+    p.add_argument("--parts", default="main,blank,fist,pose,wrist,pick,curve,dexterous,act,diffusion,workers")
     p.add_argument("--dexterous", default="keys", help="tasks of the dexterous part")
     p.add_argument("--reuse", action="store_true", help="take training runs finished in --data (same steps)")
     args = p.parse_args()
@@ -283,7 +286,8 @@ def main() -> None:
     t0 = time.perf_counter()
     for robot in args.robots.split(","):
         print(f"[{TASK} on {robot}]", flush=True)
-        root = record(robot, args.demos, args.image_size, data)
+        grasp = parts & {"main", "blank", "fist", "curve", "act", "diffusion", "workers"}  # the parts on HandGrasp's
+        root = record(robot, args.demos, args.image_size, data) if grasp else None
         key = f"{robot}/{args.demos}"
         if "main" in parts:
             rows[f"{key}/bc/state,images,task"] = r = train_eval(root, data / f"run_{robot}_main", args, None, True)
@@ -309,6 +313,9 @@ def main() -> None:
         if "wrist" in parts:  # the policy places the hand itself: where the object is, only the cameras tell
             wroot = record(robot, args.demos, args.image_size, data, wrist=True)
             with_twin(rows, key, "wrist", wroot, data / f"run_{robot}_wrist", args, "state,task", "blank")
+        if "pick" in parts:  # two objects: the instruction's colour and the cameras say which to reach for and where
+            kroot = record(robot, args.demos, args.image_size, data, task="pick")
+            with_twin(rows, key, "pick", kroot, data / f"run_{robot}_pick", args, "state,task", "blank")
         for kind in ("act", "diffusion"):
             if kind in parts:
                 rows[f"{key}/{kind}/state,images"] = r = lerobot_policy(kind, root, data / f"run_{robot}_{kind}", args)

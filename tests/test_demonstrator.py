@@ -83,7 +83,7 @@ def test_synthetic_glove_takes_a_motion_object():
     assert block.raw.shape == (100, 12, 7) and block.pose.shape == (100, 16, 4)
     with pytest.raises(ValueError, match="Hz"):
         SyntheticGlove(DemoMotion([0, 1], [ref.angles[0]] * 2, np.random.default_rng(0), 100.0), rate_hz=200.0)
-    with pytest.raises(ValueError, match="unknown task 'juggle'; valid tasks: grasp, keys, pinch, pose, relocate"):
+    with pytest.raises(ValueError, match="unknown task 'juggle'; valid tasks: grasp, keys, pick, pinch, pose, reloc"):
         make_demonstrator("juggle")
 
 

@@ -219,7 +219,7 @@ def test_a_task_from_outside_the_package_records_through_the_cli(tmp_path):
     shutil.copy(Path(__file__).parent / "plugins" / "toy_task.py", tmp_path / "my_toy_task.py")
     env = {**os.environ, "GLOVEREC_PLUGINS": "my_toy_task", "PYTHONPATH": str(tmp_path)}
     r = gloverec("record", "--task", "juggle", "--root", str(tmp_path / "x"), env=env)
-    assert r.returncode == 1 and "valid: grasp, keys, pinch, pose, relocate, turn, toy_fist" in r.stderr, r.stderr
+    assert r.returncode == 1 and "valid: grasp, keys, pick, pinch, pose, relocate, turn, toy_fist" in r.stderr, r.stderr
     root = tmp_path / "ds"
     r = gloverec("record", "--task", "toy_fist", "--episodes", "1", "--root", str(root), "--repo-id", "test/toy",
                  "--json", env=env, timeout=120)  # fmt: skip

@@ -1,6 +1,6 @@
 """Tasks by name, from the task registry (envs/tasks/registry.py): ``pose`` (HandPose), ``grasp`` (HandGrasp),
-``pinch`` (HandPinch), ``keys`` (HandKeys), ``turn`` (HandTurn) and
-``relocate`` (HandRelocate, a free wrist) built in, more from plugins;
+``pinch`` (HandPinch), ``keys`` (HandKeys), ``turn`` (HandTurn), ``relocate`` (HandRelocate, a free wrist) and
+``pick`` (HandPick, a free wrist, two objects) built in, more from plugins;
 ``make_task(name, robot)`` builds one."""
 
 from __future__ import annotations
@@ -8,6 +8,7 @@ from __future__ import annotations
 from envs.tasks.base import CAMERAS, HandEnv, TaskConfig
 from envs.tasks.hand_grasp import HandGraspConfig, HandGraspEnv
 from envs.tasks.hand_keys import HandKeysConfig, HandKeysEnv
+from envs.tasks.hand_pick import HandPickConfig, HandPickEnv
 from envs.tasks.hand_pinch import HandPinchConfig, HandPinchEnv
 from envs.tasks.hand_pose import HandPoseConfig, HandPoseEnv
 from envs.tasks.hand_relocate import HandRelocateConfig, HandRelocateEnv
@@ -21,6 +22,8 @@ __all__ = [
     "HandGraspEnv",
     "HandKeysConfig",
     "HandKeysEnv",
+    "HandPickConfig",
+    "HandPickEnv",
     "HandPinchConfig",
     "HandPinchEnv",
     "HandPoseConfig",

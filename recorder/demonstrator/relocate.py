@@ -242,3 +242,14 @@ class RelocateDemonstrator:
             planner=self,
             seed=0 if seed is None else int(seed),
         )
+
+
+def over_object(robot, start, half, shape: str, rng: np.random.Generator, c: RelocateDemoConfig) -> np.ndarray:
+    """Where the palm frame goes to grasp an object (centre ``start``, half extents ``half``, ``shape``) that rests on
+    the table, as ``RelocateDemonstrator.plan`` aims: the robot's grasp point just above its top, ``c.aim_mm`` off,
+    and on a ball's top rather than above it. For other tasks' demonstrators (recorder/demonstrator/pick.py)."""
+    at = np.array([*(np.asarray(start)[:2] + aim_error(rng, c.aim_mm)), 2 * half[2] + 0.003])
+    at -= np.array(robot.config.grasp_point)
+    if shape == "sphere":
+        at[2] -= 0.003 + c.palm_on_ball_m
+    return at

@@ -16,7 +16,7 @@ from recorder.record.sidecar import read_sidecar
 from recorder.rig.rollout import success_rate
 
 
-@pytest.mark.parametrize("task", ["grasp", "pinch", "pose", "keys", "turn", "relocate"])
+@pytest.mark.parametrize("task", ["grasp", "pinch", "pose", "keys", "turn", "relocate", "pick"])
 @pytest.mark.parametrize("rate", [0.15, 0.4])
 def test_the_share_of_failed_takes_follows_the_setting(task, rate):
     """Over 50 takes (whether a take is meant to fail is drawn from the plan's seed alone: ``meant_failure`` says so
@@ -31,7 +31,7 @@ def test_the_share_of_failed_takes_follows_the_setting(task, rate):
 
 
 @pytest.mark.parametrize(("task", "good_of_6"), [("grasp", 5), ("pinch", 4), ("pose", 6), ("keys", 6), ("turn", 6),
-                                                  ("relocate", 6)])  # fmt: skip
+                                                  ("relocate", 6), ("pick", 5)])  # fmt: skip
 def test_meant_failures_fail_and_the_other_takes_succeed(task, good_of_6):
     failing = success_rate(task, "glovehand", 6, demonstrator="human", failure_rate=1.0)
     assert failing["successes"] == 0, [r["intent"] for r in failing["runs"]]
@@ -44,7 +44,8 @@ def test_meant_failures_fail_and_the_other_takes_succeed(task, good_of_6):
 
 STRATEGIES = {"grasp": {"together", "thumb first"}, "pinch": {"together", "thumb first"},
               "pose": {"together", "thumb last"}, "keys": {"quick taps", "deliberate presses"},
-              "turn": {"one sweep", "two sweeps"}, "relocate": {"together", "thumb first"}}  # fmt: skip
+              "turn": {"one sweep", "two sweeps"}, "relocate": {"together", "thumb first"},
+              "pick": {"together", "thumb first"}}  # fmt: skip
 
 
 def test_it_moves_as_people_do_not_as_the_script():

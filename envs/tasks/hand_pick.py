@@ -217,6 +217,16 @@ class HandPickEnv(HandEnv):
         end = self.t >= cfg.episode_s - 1e-9
         return success, (success and cfg.terminate_on_success) or end, float(held)
 
+    def failure(self) -> str | None:
+        cfg = self.config
+        if self.lifted(self.other()) >= cfg.other_lift_m:
+            return f"lifted the {self.other()} one"
+        if self.lifted(self.target) < 0.5 * cfg.lift_m:
+            moved = float(np.linalg.norm(self.object_pose()[:2] - self.objects[self.target].start[:2]))
+            return f"not lifted (pushed {100 * moved:.0f} cm)" if moved > 0.02 else "not lifted"
+        bodies = self.hand_contacts(self.object_geom())
+        return None if bodies >= 2 else f"lifted, but held by {bodies} hand bod{'y' if bodies == 1 else 'ies'}"
+
     def _info(self, success: bool) -> dict:
         shapes = {c: self.objects[c].shape for c in COLOURS}
         return {**super()._info(success), "target": self.target, "object": shapes[self.target], "shapes": shapes}

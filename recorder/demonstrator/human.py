@@ -35,6 +35,7 @@ import numpy as np
 from recorder.demonstrator.grasp import GraspDemonstrator
 from recorder.demonstrator.keys import KeysDemoConfig, KeysDemonstrator
 from recorder.demonstrator.motion import DemoMotion
+from recorder.demonstrator.pick import PickDemoConfig, PickDemonstrator
 from recorder.demonstrator.pinch import PinchDemonstrator
 from recorder.demonstrator.pose import PoseDemoConfig, PoseDemonstrator
 from recorder.demonstrator.relocate import RelocateDemoConfig, RelocateDemonstrator
@@ -363,6 +364,39 @@ class HumanRelocateDemonstrator(MeantFailures):
         return m
 
 
+PICK_LOOSE = 0.3  # HandPick's "too loose": a power grasp 45 % closed still lifted a light box (1 of 20 takes)
+
+
+class HumanPickDemonstrator(MeantFailures):
+    """HandPick as a person reaches for the named object: finding it (a reaction time), the travel, reach, closing
+    and lift each at a person's varying speed, aimed with a person's spread (``aim_mm``), a person's tremor; the
+    fingers together or the thumb first. The mistakes: a grip "too loose" (the object slips out in the lift) or
+    the "wrong one" (the instruction misread: the other object picked up)."""
+
+    task = "pick"
+    kinds = ("too loose", "wrong one")
+
+    def __init__(self, human: HumanConfig = HumanConfig(), config: PickDemoConfig = PickDemoConfig()):
+        self.human, self.config = human, config
+
+    def plan(self, env, seed: int | None = None) -> DemoMotion:
+        env, h, c = env.unwrapped, self.human, self.config
+        rng, sub, fails, strategy, r = take(seed, h, self.kinds, ("together", "thumb first"))
+        spans = {name: (duration(rng, h, getattr(c, name)),) * 2
+                 for name in ("over_s", "reach_s", "descend_s", "close_s", "lift_s")}  # fmt: skip
+        config = replace(c, reaction_s=(r - 0.05, r + 0.05), aim_mm=h.aim_mm, tremor_deg=h.tremor_deg,
+                         grip=PICK_LOOSE if fails == "too loose" else 1.0, **spans)  # fmt: skip
+        m = PickDemonstrator(config).plan(env, seed=int(sub.integers(2**31)),
+                                          colour=env.other() if fails == "wrong one" else None)  # fmt: skip
+        edits = []
+        if strategy == "thumb first":  # the fingers' second move is the closing (the first shapes the approach)
+            k = int(np.flatnonzero(np.any(m.poses[1:] != m.poses[:-1], axis=1))[1]) + 1
+            staged(m, float(m.times[k - 1]), float(m.times[k]), thumb_first=True)
+            edits.append(f"thumb first at {m.times[k - 1]:.2f} s")
+        m.intent = {"demonstrator": "human", "strategy": strategy, "failure": fails, "edits": edits}
+        return m
+
+
 HUMAN = {"grasp": HumanGraspDemonstrator, "pinch": HumanPinchDemonstrator, "pose": HumanPoseDemonstrator,
          "keys": HumanKeysDemonstrator, "turn": HumanTurnDemonstrator,
-         "relocate": HumanRelocateDemonstrator}  # fmt: skip
+         "relocate": HumanRelocateDemonstrator, "pick": HumanPickDemonstrator}  # fmt: skip

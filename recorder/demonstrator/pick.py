@@ -67,7 +67,8 @@ class PickDemonstrator:
     def __init__(self, config: PickDemoConfig = PickDemoConfig()):
         self.config = config
 
-    def plan(self, env, seed: int | None = None) -> DemoMotion:
+    def plan(self, env, seed: int | None = None, colour: str | None = None) -> DemoMotion:
+        """``colour``: reach for that object rather than the one the instruction names (a wearer's mistake)."""
         env = env.unwrapped
         c = self.config
         rng = np.random.default_rng(seed)
@@ -75,10 +76,11 @@ class PickDemonstrator:
         def took(span) -> float:
             return float(rng.uniform(*span)) if isinstance(span, tuple) else float(span)
 
-        target = env.objects[env.target]
+        target = env.objects[colour or env.target]
         size = 2.0 * float(np.mean(target.half[:2])) / env.robot.config.retarget.tips.scale
         noise = np.clip(rng.normal(0, 1, len(JOINTS)), -2, 2) * np.radians(c.pose_noise_deg)
         grasp = power_grasp(size) + noise
+        grasp = PREGRASP + c.grip * (grasp - PREGRASP)
         home, _ = env._base_target(0.0)
         at_object = over_object(env.robot, target.start, target.half, target.shape, rng, c)
         lifted = at_object + [0, 0, c.lift_m]
@@ -102,5 +104,5 @@ class PickDemonstrator:
         end = max(lift_done, env.config.episode_s) + 1.0
         keys.append((end, grasp, lifted))
         times, poses, positions = zip(*keys)
-        return PickMotion(times, poses, rng, c.rate_hz, palm_pos=np.array(positions),
+        return PickMotion(times, poses, rng, c.rate_hz, palm_pos=np.array(positions), tremor_deg=c.tremor_deg,
                           check=(lift_done, lift_done + 0.5, c.lift_m), sag_m=c.sag_mm * 1e-3)  # fmt: skip

@@ -258,6 +258,14 @@ def test_device_clock_unwraps_the_32bit_counter():
     assert np.all(np.diff(t) > 0) and abs(t[2] - t[1] - 32e-6) < 1e-9
 
 
+def test_an_older_time_read_after_a_wrap_is_no_second_wrap():
+    """The glove unwraps its pose samples' times and its frames' apart, so a time from just before a wrap can come
+    after the frames past it; it once counted as a wrap back and the next frame as another (8590 s ahead)."""
+    clock = DeviceClock()
+    t = [clock.unwrap(x, 0) for x in (0xFFFFFF00, 0x10, 0xFFFFFFF0, 0x20, 0x18)]
+    np.testing.assert_allclose(np.array(t) - t[0], np.array([0, 0x110, 0xF0, 0x120, 0x118]) * 1e-6, atol=1e-9)
+
+
 def test_firmware_in_the_loop_through_the_pty(emulator):
     """The compiled glove core is the emulator's firmware: its compact frames reach the reader intact."""
     from recorder.protocol import PoseCompactFrame

@@ -40,12 +40,20 @@ class DeviceClock:
         self._ready = False
 
     def unwrap(self, t_us: int, rx_ns: int) -> float:
-        """Device time in seconds, continuous across 32-bit wraps."""
+        """Device time in seconds, continuous across 32-bit wraps. Callers may pass an older frame's time after a
+        newer one's (the glove reads its pose samples and its frames apart): an older time never counts as a wrap,
+        which once added two wraps (8590 s) when a pose sample from just before a wrap came after the frames past it
+        (a faster-than-real-time session, whose device clock runs ahead, crossing a wrap)."""
         if self.host_monotonic:  # the device counter is host monotonic µs mod 2^32
             host_us = rx_ns // 1000
             return (host_us - ((host_us - t_us) % WRAP)) * 1e-6
-        if self._last_raw is not None and t_us < self._last_raw - WRAP // 2:
-            self._epoch += WRAP
+        if self._last_raw is not None:
+            if t_us > self._last_raw + WRAP // 2:  # an older frame's, from before the last wrap (a pose sample read
+                return (t_us + self._epoch - WRAP) * 1e-6  # after newer frames): counted back, no wrap undone
+            if t_us < self._last_raw - WRAP // 2:
+                self._epoch += WRAP
+            elif t_us < self._last_raw:
+                return (t_us + self._epoch) * 1e-6  # an older frame's, same wrap: the newest stays the reference
         self._last_raw = t_us
         return (t_us + self._epoch) * 1e-6
 

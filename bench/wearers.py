@@ -12,7 +12,7 @@ Paths:
   recorded    `gloverec record --glove emulator --fast` as a user runs it: emulated IMUs over the serial protocol,
               host fusion, retargeting, the dataset written (free-wrist tasks: --wrist marker:emulated, the
               emulated webcam filming the glove's marker)
-With --push, each relocate take's object is also pushed 2-4 cm mid-reach (direct only): the demonstrators re-plan.
+With --push, each relocate and pick take's object is also pushed 2-4 cm mid-reach (direct): the demonstrators re-plan.
 Each row: successes, the Wilson 95 % interval, and why the failed takes failed (the task's ``failure()``).
 Writes bench/results/wearers.json (rows it does not measure are kept from the last run).
 """
@@ -39,6 +39,7 @@ from recorder.rig.rollout import success_rate  # noqa: E402
 ROBOTS = ("glovehand", "shadow", "leap")
 WATCHED = ("grasp", "pinch")  # the tasks whose wearer watches the robot hand close: an open-loop row too
 PUSH_CM = (2.0, 4.0)
+PUSHED = ("relocate", "pick")  # the free-wrist tasks whose wearers re-plan from a pushed object
 
 
 def wearers(task: str) -> list[tuple[str, dict]]:
@@ -86,7 +87,7 @@ def main(argv=None) -> None:
     p.add_argument("--robots", default=",".join(ROBOTS))
     p.add_argument("--episodes", type=int, default=50)
     p.add_argument("--paths", default="direct,recorded")
-    p.add_argument("--push", action="store_true", help="also relocate with its object pushed 2-4 cm mid-reach")
+    p.add_argument("--push", action="store_true", help="also relocate and pick with the object pushed mid-reach")
     args = p.parse_args(argv)
     tasks, paths = args.tasks.split(","), args.paths.split(",")
     for t in tasks:
@@ -104,7 +105,7 @@ def main(argv=None) -> None:
                         results["wearers"][f"{task}/{robot}/{name}/{path}"] = r
                         print(f"{task}/{robot}/{name}/{path}: {r['successes']}/{r['episodes']} {r['wilson95']} "
                               f"{r['failed_because']}", flush=True)  # fmt: skip
-                    if args.push and task == "relocate":
+                    if args.push and task in PUSHED:
                         r = direct(task, robot, how, args.episodes, PUSH_CM)
                         results["wearers"][f"{task}/{robot}/{name}/pushed 2-4 cm"] = r
                         print(f"{task}/{robot}/{name}/pushed: {r['successes']}/{r['episodes']} {r['wilson95']}",

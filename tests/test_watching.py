@@ -12,7 +12,8 @@ import envs
 from conftest import cli
 from recorder.demonstrator import make_demonstrator
 from recorder.demonstrator.motion import DemoMotion
-from recorder.demonstrator.relocate import RelocateMotion, in_hand
+from recorder.demonstrator.relocate import RelocateMotion
+from recorder.demonstrator.replan import in_hand
 from recorder.record.sidecar import read_sidecar
 from recorder.retarget import Retargeter
 from recorder.rig.rollout import pushed, run_episode
@@ -70,6 +71,11 @@ def test_after_the_object_is_pushed_the_relocate_wearer_regrips_and_succeeds(see
     finally:
         RelocateMotion.replans = kept
     assert not blind["success"], blind
+
+
+def test_after_the_target_is_pushed_the_pick_wearer_reaches_where_it_lies():
+    done, plan = _run("pick", 0, push=pushed(0, (2, 4)))
+    assert done["success"] and plan.replanned == 1, done
 
 
 def test_a_plan_from_mid_take_carries_on_with_the_object_in_hand():

@@ -185,8 +185,23 @@ class HandPickEnv(HandEnv):
         qadr = self._ids[colour or self.target, self.objects[colour or self.target].shape][2]
         return self.data.qpos[qadr : qadr + 7].copy()
 
-    def object_geom(self, colour: str | None = None) -> int:
-        return int(self._ids[colour or self.target, self.objects[colour or self.target].shape][1])
+    @property
+    def object_geom(self) -> int:
+        """The target's geom (what the hand must hold), as HandGrasp's ``object_geom``."""
+        return int(self._ids[self.target, self.objects[self.target].shape][1])
+
+    @property
+    def object_start(self) -> np.ndarray:
+        """Where the target started (its centre), as HandGrasp's ``object_start``."""
+        return self.objects[self.target].start
+
+    def displace_object(self, offset) -> None:
+        """Move the target by ``offset`` (x, y, m) where it rests, at rest, as HandGrasp's ``displace_object``."""
+        body, _, qadr = self._ids[self.target, self.objects[self.target].shape]
+        self.data.qpos[qadr : qadr + 2] += np.asarray(offset, float)[:2]
+        dof = self.model.jnt_dofadr[self.model.body_jntadr[body]]
+        self.data.qvel[dof : dof + 6] = 0.0
+        mujoco.mj_forward(self.model, self.data)
 
     def lifted(self, colour: str) -> float:
         """How far ``colour``'s object is above where it started (m)."""
@@ -205,7 +220,7 @@ class HandPickEnv(HandEnv):
         cfg = self.config
         return bool(
             self.lifted(self.target) >= 0.5 * cfg.lift_m
-            and self.hand_contacts(self.object_geom()) >= 2
+            and self.hand_contacts(self.object_geom) >= 2
             and self.lifted(self.other()) < cfg.other_lift_m
         )
 
@@ -224,7 +239,7 @@ class HandPickEnv(HandEnv):
         if self.lifted(self.target) < 0.5 * cfg.lift_m:
             moved = float(np.linalg.norm(self.object_pose()[:2] - self.objects[self.target].start[:2]))
             return f"not lifted (pushed {100 * moved:.0f} cm)" if moved > 0.02 else "not lifted"
-        bodies = self.hand_contacts(self.object_geom())
+        bodies = self.hand_contacts(self.object_geom)
         return None if bodies >= 2 else f"lifted, but held by {bodies} hand bod{'y' if bodies == 1 else 'ies'}"
 
     def _info(self, success: bool) -> dict:

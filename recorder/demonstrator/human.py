@@ -388,6 +388,8 @@ class HumanPickDemonstrator(MeantFailures):
                          grip=PICK_LOOSE if fails == "too loose" else 1.0, **spans)  # fmt: skip
         m = PickDemonstrator(config).plan(env, seed=int(sub.integers(2**31)),
                                           colour=env.other() if fails == "wrong one" else None)  # fmt: skip
+        if fails:
+            m.replans = 0  # a careless take: not gone back for (nor the wrong one's mistake seen)
         edits = []
         if strategy == "thumb first":  # the fingers' second move is the closing (the first shapes the approach)
             k = int(np.flatnonzero(np.any(m.poses[1:] != m.poses[:-1], axis=1))[1]) + 1

@@ -19,6 +19,7 @@ import numpy as np
 from recorder.demonstrator.grasp import PREGRASP, power_grasp
 from recorder.demonstrator.motion import DemoMotion
 from recorder.demonstrator.relocate import RelocateDemoConfig, over_object
+from recorder.demonstrator.replan import ReplanningMotion, in_hand
 from recorder.hand.gestures import GESTURES
 from recorder.hand.kinematics import JOINTS
 
@@ -33,20 +34,23 @@ class PickDemoConfig(RelocateDemoConfig):
     sag_mm: float = 15.0  # after the lift, an object this much lower than planned is lifted again by that much
 
 
-class PickMotion(DemoMotion):
+class PickMotion(ReplanningMotion):
     """The plan, and the person watching the lift: once, in the pause after it, they see how high the object hangs
-    and, if it slid down in the grip, lift the hand by what it lost."""
-
-    watches = True
+    and, if it slid down in the grip, lift the hand by what it lost. When they see the object lie elsewhere than
+    they reached for, or out of the hand, they plan again (ReplanningMotion)."""
 
     def __init__(self, *args, check=None, sag_m: float = 0.015, **kw):
         super().__init__(*args, **kw)
         self.check = check  # (from_s, to_s, planned height of the object's centre above its start)
         self.sag_m = sag_m
 
+    def adopt(self, fresh: PickMotion, at: float) -> None:
+        super().adopt(fresh, at)
+        self.check = None if fresh.check is None else (fresh.check[0] + at, fresh.check[1] + at, fresh.check[2])
+
     def watch(self, env, into=None) -> None:
         into = self if into is None else into
-        if self.check is None or env.t < self.check[0]:
+        if self.replanned_now(env, into) or self.check is None or env.t < self.check[0]:
             return
         start, end, planned = self.check
         self.check = None
@@ -54,11 +58,13 @@ class PickMotion(DemoMotion):
         if at >= end:
             return
         sag = planned - env.lifted(env.target)
-        if sag < self.sag_m or env.hand_contacts(env.object_geom()) < 2:  # not slid: lost (nothing to lift)
+        if sag < self.sag_m or env.hand_contacts(env.object_geom) < 2:  # not slid: lost (nothing to lift)
             return
         at = into.revise(at, took, move=(0.0, 0.0, sag))
         if at is not None and into is not self:
             self.revise(at, took, move=(0.0, 0.0, sag))
+        if at is not None:
+            self.shifted(at, took)
 
 
 class PickDemonstrator:
@@ -67,8 +73,11 @@ class PickDemonstrator:
     def __init__(self, config: PickDemoConfig = PickDemoConfig()):
         self.config = config
 
-    def plan(self, env, seed: int | None = None, colour: str | None = None) -> DemoMotion:
-        """``colour``: reach for that object rather than the one the instruction names (a wearer's mistake)."""
+    def plan(self, env, seed: int | None = None, colour: str | None = None, start=None) -> DemoMotion:
+        """``colour``: reach for that object rather than the one the instruction names (a wearer's mistake).
+        ``start``, (pose (20,) rad, palm position (3,) m): where the wearer's hand is now, from the environment as
+        it is now (env.t is the plan's time 0): the object reached for where it lies, or held up if it is in the
+        hand."""
         env = env.unwrapped
         c = self.config
         rng = np.random.default_rng(seed)
@@ -82,27 +91,41 @@ class PickDemonstrator:
         grasp = power_grasp(size) + noise
         grasp = PREGRASP + c.grip * (grasp - PREGRASP)
         home, _ = env._base_target(0.0)
-        at_object = over_object(env.robot, target.start, target.half, target.shape, rng, c)
+        lies = env.object_pose(colour)[:3] if start is not None else target.start
+        at_object = over_object(env.robot, lies, target.half, target.shape, rng, c)
         lifted = at_object + [0, 0, c.lift_m]
         tallest = max(2 * o.half[2] for o in env.objects.values())
         over = at_object + [0, 0, c.hover_m + tallest - 2 * target.half[2]]
-        keys = [(0.0, GESTURES["open"], home)]
+        pose, pos = (GESTURES["open"], home) if start is None else (np.asarray(start[0]), np.asarray(start[1]))
+        keys = [(0.0, pose, pos)]
 
         def then(span, pose, pos, react=True) -> None:
-            t = keys[-1][0] + (took(c.reaction_s) if react else 0.0)
+            t = keys[-1][0] + (took(c.reaction_s if react is True else react) if react else 0.0)
             keys.append((t, keys[-1][1], keys[-1][2]))  # held while reacting
             keys.append((t + took(span), pose, pos))
 
-        then(c.look_s, GESTURES["open"], home, react=False)
-        then(c.over_s, GESTURES["open"], over)
-        then(c.reach_s, PREGRASP, at_object + [0, 0, c.approach_m], react=False)
-        then(c.descend_s, PREGRASP, at_object, react=False)
-        then(c.close_s, grasp, at_object)
-        then(c.squeeze_s, grasp, at_object, react=False)
-        then(c.lift_s, grasp, lifted, react=False)
+        held = start is not None and in_hand(env)
+        if held:  # in the hand already: lift it (again) to where it should be held
+            grasp, reached = pose, 0.0
+            lifted = np.array([*pos[:2], max(pos[2], lifted[2])])
+            then(c.lift_s, grasp, lifted)
+        else:
+            if start is None:
+                then(c.look_s, GESTURES["open"], home, react=False)
+            elif pos[2] < over[2] - 1e-3:  # up first, the hand open, clear of both objects, then over it
+                then(c.lift_s, GESTURES["open"], [*pos[:2], over[2]])
+            then(c.over_s, GESTURES["open"], over)
+            then(c.reach_s, PREGRASP, at_object + [0, 0, c.approach_m], react=c.glance_s)  # over it: a glance
+            reached = keys[-1][0]  # from here on the hand is at the object: it may nudge it itself
+            then(c.descend_s, PREGRASP, at_object, react=c.glance_s)  # a glance that it is over it
+            then(c.close_s, grasp, at_object)
+            then(c.squeeze_s, grasp, at_object, react=False)
+            then(c.lift_s, grasp, lifted, react=False)
         lift_done = keys[-1][0]
-        end = max(lift_done, env.config.episode_s) + 1.0
+        end = max(lift_done, env.config.episode_s - env.t) + 1.0
         keys.append((end, grasp, lifted))
         times, poses, positions = zip(*keys)
         return PickMotion(times, poses, rng, c.rate_hz, palm_pos=np.array(positions), tremor_deg=c.tremor_deg,
-                          check=(lift_done, lift_done + 0.5, c.lift_m), sag_m=c.sag_mm * 1e-3)  # fmt: skip
+                          check=(lift_done, lift_done + 0.5, c.lift_m), sag_m=c.sag_mm * 1e-3,
+                          aim=(*lies[:2], reached, lift_done, np.inf), planner=self,
+                          seed=0 if seed is None else int(seed))  # fmt: skip

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from recorder.demonstrator.grasp import PREGRASP, power_grasp
-from recorder.demonstrator.motion import DemoMotion
 from recorder.demonstrator.reach import aim_error
+from recorder.demonstrator.replan import ReplanningMotion, in_hand
 from recorder.hand.gestures import GESTURES
 from recorder.hand.kinematics import JOINTS
 
@@ -30,7 +30,7 @@ class RelocateDemoConfig:
     reaction_s: tuple = (0.15, 0.3)  # before each move: seeing that the last one is done
     reach_s: tuple = (0.6, 0.8)  # over the object, ``approach_m`` above where it grasps
     approach_m: float = 0.02
-    look_s: tuple = (0.08, 0.15)  # over the object, a glance that the hand is above it before coming down
+    glance_s: tuple = (0.08, 0.15)  # over the object, a glance that the hand is above it before coming down
     descend_s: tuple = (0.25, 0.35)  # the last of the reach, straight down onto the object, slowly
     close_s: tuple = (0.45, 0.7)
     squeeze_s: float = 0.3
@@ -53,34 +53,22 @@ class RelocateDemoConfig:
     rate_hz: float = 200.0
 
 
-class RelocateMotion(DemoMotion):
+class RelocateMotion(ReplanningMotion):
     """The plan, and the person watching it: in the pause after the lift they see where the object sits in the
     hand and aim the carry for it, and in the pause before letting go they nudge it into the circle. When they see
-    the object lie elsewhere than they reached for (knocked, pushed, dropped), they plan again from where the hand
-    and the object are (``planner``: the demonstrator; at the plan's next pause, at most ``replans`` times)."""
+    the object lie elsewhere than they reached for, or out of the hand, they plan again (ReplanningMotion)."""
 
-    watches = True
-    replans = 3
-    moved_m = 0.015  # the object this far from where the plan reaches for it (and at rest): planned again
-
-    def __init__(self, *args, checks=(), carry=(0.0, 0.0), lower=None, land_m=0.0, nudge_mm: float = 6.0,
-                 aim=None, planner=None, seed: int = 0, **kw):  # fmt: skip
+    def __init__(self, *args, checks=(), carry=(0.0, 0.0), lower=None, land_m=0.0, nudge_mm: float = 6.0, **kw):
         super().__init__(*args, **kw)
         self.checks = list(checks)  # (from_s, to_s, kind): the pauses where the person looks
         self.carry = np.asarray(carry, float)  # the planned carry (x, y) still ahead at the first check
         self.lower = lower  # how far the plan lowers the object after the carry (m; None: not looked at)
         self.land_m = land_m  # where the lowering should leave the object's bottom, above where it started
         self.nudge_m = nudge_mm * 1e-3
-        # (x, y, reached_s, held_s, placed_s): where the reach goes for the object, when the hand is over it, and
-        # from when until when the plan has it in the hand
-        self.aim = None if aim is None else np.asarray(aim, float)
-        self.planner, self.seed, self.replanned = planner, seed, 0
-        self._last_seen = None
 
     def watch(self, env, into=None) -> None:
         into = self if into is None else into
-        if self._displaced(env):
-            self._replan(env, into)
+        if self.replanned_now(env, into):
             return
         if not self.checks or env.t < self.checks[0][0]:
             return
@@ -102,56 +90,12 @@ class RelocateMotion(DemoMotion):
         if into is not self:
             self.revise(at, took, move=move)  # this plan's own copy, when the performer made it
         self.checks = [(a + took, b + took, k) for a, b, k in self.checks]
-        if self.aim is not None:
-            self.aim[2:] += np.where(self.aim[2:] > at, took, 0.0)
+        self.shifted(at, took)
 
-    def _displaced(self, env) -> bool:
-        """The object lies, at rest, away from where the reach goes for it (before the hand is over it), or out of
-        the hand while the plan carries it (it slipped out, or a policy driving before a takeover knocked it)."""
-        pose = env.object_pose()[:3]
-        still = self._last_seen is not None and np.linalg.norm(pose - self._last_seen) < 2e-4  # < 6 mm/s at 30 Hz
-        self._last_seen = pose
-        if self.planner is None or self.aim is None or self.replanned >= self.replans or not still:
-            return False
-        reached, held, placed = self.aim[2:]
-        if env.t < reached:
-            return float(np.linalg.norm(pose[:2] - self.aim[:2])) > self.moved_m
-        return held < env.t < placed and not in_hand(env)
-
-    def _replan(self, env, into) -> None:
-        """Plan again from the hand and the object as they are, at the plan's next pause (a person finishes the
-        move they are in, then re-aims)."""
-        t = env.t + 0.02
-        k = int(np.searchsorted(self.times, t, side="right"))
-        while k < len(self.times) and not (
-            self.times[k] > max(t, self.times[k - 1]) + 0.05
-            and np.allclose(self.poses[k - 1], self.poses[k])
-            and np.allclose(self.palm_positions[k - 1], self.palm_positions[k])
-        ):
-            k += 1  # (a pause: two equal keyframes, the fingers' pose and the palm's place alike, not over yet)
-        if k >= len(self.times):
-            return
-        at = max(t, float(self.times[k - 1]) + 1e-3)
-        start = (self.keyframe_angles([at])[0], self._keyframes([at], self.palm_positions)[0])
-        self.replanned += 1
-        fresh = self.planner.plan(env, seed=self.seed + 7919 * self.replanned, start=start)
-        try:
-            done = into.splice(at, fresh)
-        except ValueError:  # (this plan performed directly: never, the pause was found above)
-            done = None
-        if done is None:
-            self.replanned -= 1  # too late for that pause: the next look tries the next one
-            return
-        if into is not self:
-            self.splice(done, fresh)
-        self.checks = [(a + done, b + done, kind) for a, b, kind in fresh.checks]
+    def adopt(self, fresh: RelocateMotion, at: float) -> None:
+        super().adopt(fresh, at)
+        self.checks = [(a + at, b + at, kind) for a, b, kind in fresh.checks]
         self.carry, self.lower, self.land_m = fresh.carry, fresh.lower, fresh.land_m
-        self.aim = None if fresh.aim is None else fresh.aim + [0.0, 0.0, done, done, done]
-
-
-def in_hand(env) -> bool:
-    """The object is held off the table: two hand bodies on it, and 1 cm above where it rests."""
-    return bool(env.hand_contacts(env.object_geom) >= 2 and env.object_pose()[2] - env.object_start[2] > 0.01)
 
 
 class RelocateDemonstrator:
@@ -208,7 +152,7 @@ class RelocateDemonstrator:
                 then(c.lift_s, PREGRASP, [*pos[:2], clear + 0.01])
             then(c.reach_s, PREGRASP, at_object + [0, 0, c.approach_m])
             reached = keys[-1][0]  # from here on the hand is at the object: it may nudge it itself
-            then(c.descend_s, PREGRASP, at_object, react=c.look_s)  # a look that it is over the object
+            then(c.descend_s, PREGRASP, at_object, react=c.glance_s)  # a look that it is over the object
             then(c.close_s, grasp, at_object)
             then(c.squeeze_s, grasp, at_object, react=False)
             then(c.lift_s, grasp, lifted, react=False)

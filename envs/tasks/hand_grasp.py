@@ -35,6 +35,17 @@ _GEOM = {
 }
 
 
+def draw_object(rng: np.random.Generator, cfg) -> tuple[str, np.ndarray]:
+    """An object's shape and half extents (3, m) from ``cfg``'s shapes and ranges (HandGrasp's, HandPick's)."""
+    shape = cfg.shapes[int(rng.integers(len(cfg.shapes)))]
+    if shape == "box":
+        return shape, np.array([rng.uniform(*r) for r in cfg.box_half])
+    if shape == "cylinder":
+        r, h = (rng.uniform(*x) for x in cfg.cylinder_size)
+        return shape, np.array([r, r, h])
+    return shape, np.full(3, rng.uniform(*cfg.sphere_radius))
+
+
 @dataclass
 class HandGraspConfig(TaskConfig):
     episode_s: Annotated[float, Positive] = 5.5
@@ -122,15 +133,7 @@ class HandGraspEnv(HandEnv):
     # ------------------------------------------------------------ episode
     def _reset_task(self) -> None:
         m, d, rng, cfg = self.model, self.data, self.np_random, self.config
-        shape = cfg.shapes[int(rng.integers(len(cfg.shapes)))]
-        if shape == "box":
-            half = np.array([rng.uniform(*r) for r in cfg.box_half])
-        elif shape == "cylinder":
-            r, h = (rng.uniform(*x) for x in cfg.cylinder_size)
-            half = np.array([r, r, h])
-        else:
-            r = rng.uniform(*cfg.sphere_radius)
-            half = np.array([r, r, r])
+        shape, half = draw_object(rng, cfg)
         self.object_shape, self.object_half = shape, half
         mass = rng.uniform(*cfg.mass_kg)
         for k, s in enumerate(SHAPES):

@@ -27,7 +27,7 @@ import mujoco
 import numpy as np
 
 from envs.tasks.base import HandEnv, TaskConfig
-from envs.tasks.hand_grasp import _GEOM, SHAPES, HandGraspConfig
+from envs.tasks.hand_grasp import _GEOM, SHAPES, HandGraspConfig, draw_object
 from envs.tasks.registry import register_task
 from recorder import quat
 from recorder.config import ConfigError, NonNegative, Positive
@@ -140,14 +140,7 @@ class HandPickEnv(HandEnv):
     def _place(self, colour: str, xy: np.ndarray) -> PickObject:
         """Draw ``colour``'s shape, size, mass and friction (HandGrasp's ranges) and put it on the table at ``xy``."""
         m, rng, cfg = self.model, self.np_random, self.config
-        shape = cfg.shapes[int(rng.integers(len(cfg.shapes)))]
-        if shape == "box":
-            half = np.array([rng.uniform(*r) for r in cfg.box_half])
-        elif shape == "cylinder":
-            r, h = (rng.uniform(*x) for x in cfg.cylinder_size)
-            half = np.array([r, r, h])
-        else:
-            half = np.full(3, rng.uniform(*cfg.sphere_radius))
+        shape, half = draw_object(rng, cfg)
         body, geom, qadr = self._ids[colour, shape]
         m.geom_contype[geom] = m.geom_conaffinity[geom] = 1
         m.geom_rgba[geom] = self._rgba[colour, shape]

@@ -88,6 +88,7 @@ def main(argv=None) -> None:
     p.add_argument("--episodes", type=int, default=50)
     p.add_argument("--paths", default="direct,recorded")
     p.add_argument("--push", action="store_true", help="also relocate and pick with the object pushed mid-reach")
+    p.add_argument("--wearers", help="only these wearers (comma-separated: script, open loop, human)")
     args = p.parse_args(argv)
     tasks, paths = args.tasks.split(","), args.paths.split(",")
     for t in tasks:
@@ -97,6 +98,8 @@ def main(argv=None) -> None:
         for task in tasks:
             for robot in args.robots.split(","):
                 for name, how in wearers(task):
+                    if args.wearers and name not in args.wearers.split(","):
+                        continue
                     for path in paths:
                         if path == "direct":
                             r = direct(task, robot, how, args.episodes)

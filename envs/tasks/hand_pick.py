@@ -233,7 +233,9 @@ class HandPickEnv(HandEnv):
             moved = float(np.linalg.norm(self.object_pose()[:2] - self.objects[self.target].start[:2]))
             return f"not lifted (pushed {100 * moved:.0f} cm)" if moved > 0.02 else "not lifted"
         bodies = self.hand_contacts(self.object_geom)
-        return None if bodies >= 2 else f"lifted, but held by {bodies} hand bod{'y' if bodies == 1 else 'ies'}"
+        if bodies < 2:
+            return f"lifted, but held by {bodies} hand bod{'y' if bodies == 1 else 'ies'}"
+        return "held up, not yet for long enough when the episode ended" if self._held_since is not None else None
 
     def _info(self, success: bool) -> dict:
         shapes = {c: self.objects[c].shape for c in COLOURS}

@@ -116,7 +116,7 @@ class HandRelocateEnv(HandGraspEnv):
             moved = float(np.linalg.norm(self.object_pose()[:2] - self.object_start[:2]))
             where = "never moved" if moved < 0.02 else f"put down {100 * off:.1f} cm from the circle's centre"
             return where
-        return None if self._inside_since is not None else "in the circle too briefly"
+        return "in the circle, not yet settled when the episode ended" if self._inside_since is not None else None
 
     def _evaluate(self):
         cfg = self.config

@@ -120,11 +120,8 @@ class RelocateDemonstrator:
         noise = np.clip(rng.normal(0, 1, len(JOINTS)), -2, 2) * np.radians(c.pose_noise_deg)
         grasp = power_grasp(size) + noise
         grasp = PREGRASP + c.grip * (grasp - PREGRASP)
-        gp = np.array(env.robot.config.grasp_point)
         lies = env.object_pose()[:2]
-        at_object = np.array([*(lies + aim_error(rng, c.aim_mm)), 2 * env.object_half[2] + 0.003]) - gp
-        if env.object_shape == "sphere":  # on the ball, not just above it: it cannot roll from under the palm
-            at_object[2] -= 0.003 + c.palm_on_ball_m
+        at_object = over_object(env.robot, lies, env.object_half, env.object_shape, rng, c)
         lifted = at_object + [0, 0, c.lift_m]
         shift = (env.target - lies + rng.normal(0, c.place_mm * 1e-3, 2)) * c.carry
         opened = GESTURES["open"]
@@ -191,7 +188,7 @@ class RelocateDemonstrator:
 def over_object(robot, start, half, shape: str, rng: np.random.Generator, c: RelocateDemoConfig) -> np.ndarray:
     """Where the palm frame goes to grasp an object (centre ``start``, half extents ``half``, ``shape``) that rests on
     the table, as ``RelocateDemonstrator.plan`` aims: the robot's grasp point just above its top, ``c.aim_mm`` off,
-    and on a ball's top rather than above it. For other tasks' demonstrators (recorder/demonstrator/pick.py)."""
+    and on a ball's top rather than above it (it cannot roll from under the palm). Relocate's and pick's."""
     at = np.array([*(np.asarray(start)[:2] + aim_error(rng, c.aim_mm)), 2 * half[2] + 0.003])
     at -= np.array(robot.config.grasp_point)
     if shape == "sphere":

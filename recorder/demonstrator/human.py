@@ -324,6 +324,21 @@ class HumanTurnDemonstrator(MeantFailures):
         return m
 
 
+def reaching_take(m, fails: str | None, strategy: str) -> DemoMotion:
+    """A free-wrist reach-and-grasp plan (relocate, pick) made a person's take: a careless take (a meant failure)
+    does not re-plan (the object let slip is not gone back for, the wrong one's mistake not seen); "thumb first"
+    closes the thumb before the fingers (their second move is the closing: the first shapes the approach)."""
+    if fails:
+        m.replans = 0
+    edits = []
+    if strategy == "thumb first":
+        k = int(np.flatnonzero(np.any(m.poses[1:] != m.poses[:-1], axis=1))[1]) + 1
+        staged(m, float(m.times[k - 1]), float(m.times[k]), thumb_first=True)
+        edits.append(f"thumb first at {m.times[k - 1]:.2f} s")
+    m.intent = {"demonstrator": "human", "strategy": strategy, "failure": fails, "edits": edits}
+    return m
+
+
 class HumanRelocateDemonstrator(MeantFailures):
     """HandRelocate as a person does it with a free wrist: each move a reaction time after the last (drawn per take),
     the reach, closing, lift, carry and lowering each at a person's varying speed, aimed and placed with a person's
@@ -353,15 +368,7 @@ class HumanRelocateDemonstrator(MeantFailures):
             config = replace(config, carry=h.short_carry)
         # its re-plans (the object not where it reaches) come from the same person: this take's draws and mistake
         m = RelocateDemonstrator(config).plan(env, seed=int(sub.integers(2**31)), start=start)
-        if fails:
-            m.replans = 0  # a careless take: the object let slip is not gone back for
-        edits = []
-        if strategy == "thumb first":  # the fingers' second move is the closing (the first opens them to reach)
-            k = int(np.flatnonzero(np.any(m.poses[1:] != m.poses[:-1], axis=1))[1]) + 1
-            staged(m, float(m.times[k - 1]), float(m.times[k]), thumb_first=True)
-            edits.append(f"thumb first at {m.times[k - 1]:.2f} s")
-        m.intent = {"demonstrator": "human", "strategy": strategy, "failure": fails, "edits": edits}
-        return m
+        return reaching_take(m, fails, strategy)
 
 
 PICK_LOOSE = 0.3  # HandPick's "too loose": a power grasp 45 % closed still lifted a light box (1 of 20 takes)
@@ -388,15 +395,7 @@ class HumanPickDemonstrator(MeantFailures):
                          grip=PICK_LOOSE if fails == "too loose" else 1.0, **spans)  # fmt: skip
         m = PickDemonstrator(config).plan(env, seed=int(sub.integers(2**31)),
                                           colour=env.other() if fails == "wrong one" else None)  # fmt: skip
-        if fails:
-            m.replans = 0  # a careless take: not gone back for (nor the wrong one's mistake seen)
-        edits = []
-        if strategy == "thumb first":  # the fingers' second move is the closing (the first shapes the approach)
-            k = int(np.flatnonzero(np.any(m.poses[1:] != m.poses[:-1], axis=1))[1]) + 1
-            staged(m, float(m.times[k - 1]), float(m.times[k]), thumb_first=True)
-            edits.append(f"thumb first at {m.times[k - 1]:.2f} s")
-        m.intent = {"demonstrator": "human", "strategy": strategy, "failure": fails, "edits": edits}
-        return m
+        return reaching_take(m, fails, strategy)
 
 
 HUMAN = {"grasp": HumanGraspDemonstrator, "pinch": HumanPinchDemonstrator, "pose": HumanPoseDemonstrator,

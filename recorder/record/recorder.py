@@ -521,8 +521,9 @@ class Recorder:
             result["dart"] = self.dart.summary()
         if self.demo is not None and self.demo.intent is not None:
             result["demonstration"] = self.demo.intent  # what the human-like wearer meant: strategy, failure
-        if not success and self.u.failure() is not None:
-            result["failed_because"] = self.u.failure()  # where the take went wrong, as the task sees it
+        why = None if success else self.u.failure()  # where the take went wrong, as the task sees it
+        if why is not None:
+            result["failed_because"] = why
         if self.logger is not None:
             self.logger.mark("episode_end", episode=index, seed=seed, frames=stats.frames, success=success,
                              device_start_s=device_start)  # fmt: skip

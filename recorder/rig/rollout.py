@@ -155,7 +155,7 @@ def run_episode(
         **({"wrist_untracked_steps": read.lost} if isinstance(read, _TrackedWrist) else {}),
         **{k: info[k] for k in ("goal", "object") if k in info},
         **({"intent": motion.intent} if motion.intent is not None else {}),
-        **({"failed_because": u.failure()} if not info["is_success"] and u.failure() else {}),
+        **({"failed_because": why} if not info["is_success"] and (why := u.failure()) else {}),
     }
 
 

@@ -93,21 +93,22 @@ class Performer:
         the demonstration's time (``at_s`` or later), so that the plan's copy makes the same correction; None when
         that is too late: the hold it belonged to is over (the correction is dropped, the demonstration goes on as
         planned)."""
-        with self._motion.lock:
-            at = max(self._demo_start + at_s, self._motion.taken_s + 1.0 / self._motion.rate_hz)
-            try:
-                return self.session.revise(at, duration_s, palm_delta, move, pose_delta) - self._demo_start
-            except ValueError:
-                return None
+        return self._change(at_s, lambda at: self.session.revise(at, duration_s, palm_delta, move, pose_delta))
 
     def splice(self, at_s: float, plan) -> float | None:
         """The demonstration being performed goes on as ``plan`` from ``at_s`` (DemoMotion.splice: a plan made from
         the state it found), in the session's time and never before what the emulator has synthesised already;
         returns when, in the demonstration's time, or None when that is no longer in the hold it was meant for."""
+        return self._change(at_s, lambda at: self.session.splice(at, plan))
+
+    def _change(self, at_s: float, change) -> float | None:
+        """``change(at)`` of the session's motion at the demonstration's ``at_s`` in session time, never before
+        what the emulator has synthesised already; when it happened in the demonstration's time, or None where
+        that is no longer in a hold (DemoMotion's ValueError)."""
         with self._motion.lock:
             at = max(self._demo_start + at_s, self._motion.taken_s + 1.0 / self._motion.rate_hz)
             try:
-                return self.session.splice(at, plan) - self._demo_start
+                return change(at) - self._demo_start
             except ValueError:
                 return None
 

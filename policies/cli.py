@@ -1,5 +1,5 @@
-"""`gloverec train`, `gloverec eval` and `gloverec replay`: flags here, the work in policies.train, .evaluate
-and .replay.
+"""`gloverec train`, `gloverec eval`, `gloverec generate` and `gloverec replay`: flags here, the work in
+policies.train, .evaluate, .generate and .replay.
 
 ``add_parsers(subparsers)`` adds the three commands to the `gloverec` subparsers (recorder/cli.py); each
 handler returns the exit code or raises GloverecError (one line, exit 1). With ``--json`` stdout carries
@@ -85,6 +85,28 @@ def add_parsers(subparsers) -> None:
                    "task's objects), camera (moved 5 degrees), or all; reported beside the plain figure")  # fmt: skip
     e.add_argument("--json", action="store_true", help="print one JSON object (success_rate, episodes, ...)")
     e.set_defaults(func=cmd_eval)
+
+    g = subparsers.add_parser("generate", help="generate many demonstrations in simulation from a few recorded ones "
+                              "(object-centric segments moved to new scenes; only successes kept)")  # fmt: skip
+    g.add_argument("--from", dest="source", required=True, metavar="DATASET",
+                   help="the demonstrations: a recording folder, or USER/NAME[@vN] in the hub")  # fmt: skip
+    g.add_argument("--hub", help=HUB_HELP)
+    g.add_argument("--out", required=True, help="the new dataset's folder (must not exist)")
+    g.add_argument("--repo-id", help="the new dataset's id (default: the source's with _generated)")
+    g.add_argument("--episodes", type=positive_int, default=100, help="successful episodes to generate (default 100)")
+    g.add_argument("--seeds", type=_seeds, default=(10000, None), metavar="FIRST[-LAST]",
+                   help="the new scenes' seeds: from FIRST on, one per attempt (default 10000, away from the "
+                   "recorder's 0, 1, ... and the evaluation's 100000 on); FIRST-LAST: only those")  # fmt: skip
+    g.add_argument("--max-attempts", type=positive_int, help="stop after this many scenes (default 5 per episode)")
+    g.add_argument("--scene", action="append", type=_scene_option, default=[], metavar="KEY=VALUE",
+                   help="a task setting for the new scenes, e.g. placement_m=0.1 (wider than the source's) or "
+                   "'shapes=[box]' (the task's config fields, docs/envs.md); repeatable")  # fmt: skip
+    g.add_argument("--dart", type=float, default=0.0, metavar="SCALE",
+                   help="DART noise on the executed actions, a share of each element's range (the generated "
+                   "action kept as expert.action; default 0: none)")  # fmt: skip
+    g.add_argument("--dart-time-s", type=float, default=0.3, help="the noise's correlation time (default 0.3 s)")
+    g.add_argument("--json", action="store_true", help="print one JSON object at the end")
+    g.set_defaults(func=cmd_generate)
 
     r = subparsers.add_parser("replay", help="replay an episode's actions open loop and measure state divergence")
     _dataset_flags(r)
@@ -217,6 +239,63 @@ def cmd_eval(args: argparse.Namespace) -> int:
             print(f"  under {name}: success {r['successes']}/{r['episodes']} = {100 * r['success_rate']:.0f} %")
         for path in result["videos"]:
             print(f"video: {path}")
+    return 0
+
+
+def _seeds(text: str) -> tuple[int, int | None]:
+    first, _, last = text.partition("-")
+    try:
+        a, b = int(first), (int(last) if last else None)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected FIRST or FIRST-LAST (non-negative integers)") from None
+    if a < 0 or (b is not None and b < a):
+        raise argparse.ArgumentTypeError(f"{text!r}: expected FIRST or FIRST-LAST with 0 <= FIRST <= LAST")
+    return a, b
+
+
+def _scene_option(text: str) -> tuple[str, object]:
+    import yaml
+
+    key, eq, value = text.partition("=")
+    if not eq or not key.strip():
+        raise argparse.ArgumentTypeError(f"{text!r}: expected KEY=VALUE, e.g. placement_m=0.1")
+    try:
+        parsed = yaml.safe_load(value)
+    except yaml.YAMLError:
+        raise argparse.ArgumentTypeError(f"{text!r}: its value is not a number, list or word") from None
+    return key.strip(), tuple(parsed) if isinstance(parsed, list) else parsed
+
+
+def cmd_generate(args: argparse.Namespace) -> int:
+    from recorder.record.store import check_root
+
+    ref = _also(args.source, args.hub)  # a missing or damaged dataset: one line, before LeRobot loads
+    check_root(args.out, resume=False)
+    repo_id = args.repo_id or f"{ref.repo_id}_generated"
+    first, last = args.seeds
+    attempts = args.max_attempts or (last - first + 1 if last is not None else None)
+    if last is not None and args.max_attempts:
+        attempts = min(args.max_attempts, last - first + 1)
+    if not 0.0 <= args.dart < 1.0:
+        raise GloverecError(f"--dart {args.dart:g}: expected a share of the action's range, 0 to below 1")
+    loading("LeRobot and MuJoCo")
+    from policies.generate import GenerateConfig, generate  # torch, lerobot and mujoco: not at start-up
+
+    cfg = GenerateConfig(episodes=args.episodes, seed=first, max_attempts=attempts, scene=dict(args.scene),
+                         dart=args.dart, dart_time_s=args.dart_time_s)  # fmt: skip
+    with _quiet_stdout(args.json), _setup():
+        out = generate(ref, args.out, repo_id, cfg, progress=sys.stderr.isatty() or not args.json)
+    if args.json:
+        print(json.dumps(out))
+    else:
+        print(f"generated {out['accepted']} episodes of {out['task']} on {out['robot']} from {len(out['sources'])} "
+              f"of {ref.repo_id}: {out['accepted']}/{out['attempts']} scenes accepted "
+              f"({100 * out['acceptance_rate']:.0f} %), {out['accepted_per_min']:.1f} per minute, into {out['root']}")
+        for why, n in sorted(out["rejected_because"].items(), key=lambda kv: -kv[1]):
+            print(f"  rejected {n}: {why}")
+    if out["accepted"] < args.episodes:
+        raise GloverecError(f"only {out['accepted']} of the {args.episodes} episodes were generated in "
+                            f"{out['attempts']} scenes: pass more --seeds or --max-attempts")  # fmt: skip
     return 0
 
 

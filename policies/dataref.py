@@ -67,3 +67,18 @@ def recorded_with(root: Path | None) -> dict:
     dataset without our sidecar (lerobot-record's)."""
     side = sidecar(root) if root is not None else {}
     return side[min(side)] if side else {}
+
+
+def recorded_options(info: dict, record: dict, cameras: bool = True) -> dict:
+    """The environment settings a dataset was recorded with, from its info.json and an episode's sidecar record:
+    its rate, a free wrist (the action carries the palm position), its cameras (``cameras``) and what a generated
+    dataset set beyond the task's defaults (``env_options``, `gloverec generate --scene`)."""
+    features = info.get("features", {})
+    options = {"control_hz": float(info.get("fps") or record.get("fps") or 30)}
+    if "base.x" in (features.get("action", {}).get("names") or []):
+        options["base_position"] = True
+    cams = [k.removeprefix("observation.images.") for k in features if k.startswith("observation.images.")]
+    if cams and cameras:
+        options.update(cameras=tuple(cams), image_size=tuple(features[f"observation.images.{cams[0]}"]["shape"][:2]))
+    scene = {k: tuple(v) if isinstance(v, list) else v for k, v in (record.get("env_options") or {}).items()}
+    return {**options, **scene}

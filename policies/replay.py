@@ -16,6 +16,7 @@ import numpy as np
 from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
 from policies.data import DatasetRef, dataset_info, sidecar
+from policies.dataref import recorded_options
 from policies.evaluate import VIDEO_SIZE, _write_video, make_env
 from recorder import GloverecError
 from recorder.paths import video_file
@@ -62,13 +63,9 @@ def replay(
     recorded = {k: np.stack([f[k].numpy() for f in frames]) for k in COMPARED if k in frames[0]}
     actions = np.stack([f["action"].numpy() for f in frames])
 
-    env = make_env(
-        task,
-        robot,
-        control_hz=fps,
-        render_mode="rgb_array" if video else None,
-        **({"image_size": VIDEO_SIZE} if video else {}),
-    )
+    options = {**recorded_options(info, meta, cameras=False), "control_hz": fps}  # a free wrist, a generated scene's
+    env = make_env(task, robot, render_mode="rgb_array" if video else None, **options,
+                   **({"image_size": VIDEO_SIZE} if video else {}))  # fmt: skip
     try:
         obs, _ = env.reset(seed=int(meta["seed"]))
         for k in recorded:

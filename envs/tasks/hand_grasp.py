@@ -22,6 +22,7 @@ import numpy as np
 
 from envs.tasks.base import HandEnv, TaskConfig
 from envs.tasks.registry import register_task
+from envs.tasks.segments import PickUpSegmentation
 from recorder import quat
 from recorder.config import NonNegative, Positive
 from recorder.hand.motion import min_jerk
@@ -73,7 +74,8 @@ class HandGraspConfig(TaskConfig):
         return self.descend_s + self.close_s + self.lift_s + (self.tilt_s if tilts else 0.0)
 
 
-@register_task("grasp", env_id="gloverec/HandGrasp-v0", demonstrator="recorder.demonstrator.grasp:GraspDemonstrator")
+@register_task("grasp", env_id="gloverec/HandGrasp-v0", demonstrator="recorder.demonstrator.grasp:GraspDemonstrator",
+               segmentation=PickUpSegmentation())  # fmt: skip
 class HandGraspEnv(HandEnv):
     config_class = HandGraspConfig
     workspace = (0.0, 0.0, 0.10)

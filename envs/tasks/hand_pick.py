@@ -29,6 +29,7 @@ import numpy as np
 from envs.tasks.base import HandEnv, TaskConfig
 from envs.tasks.hand_grasp import _GEOM, SHAPES, HandGraspConfig, draw_object
 from envs.tasks.registry import register_task
+from envs.tasks.segments import PickUpSegmentation
 from recorder import quat
 from recorder.config import ConfigError, NonNegative, Positive
 
@@ -68,7 +69,7 @@ class PickObject:
 
 
 @register_task("pick", env_id="gloverec/HandPick-v0", demonstrator="recorder.demonstrator.pick:PickDemonstrator",
-               live={"terminate_on_success": False})  # fmt: skip
+               live={"terminate_on_success": False}, segmentation=PickUpSegmentation())  # fmt: skip
 class HandPickEnv(HandEnv):
     config_class = HandPickConfig
     workspace = (0.0, 0.0, 0.10)
@@ -182,6 +183,16 @@ class HandPickEnv(HandEnv):
     def object_geom(self) -> int:
         """The target's geom (what the hand must hold), as HandGrasp's ``object_geom``."""
         return int(self._ids[self.target, self.objects[self.target].shape][1])
+
+    @property
+    def object_shape(self) -> str:
+        """The target's shape, as HandGrasp's ``object_shape``."""
+        return self.objects[self.target].shape
+
+    @property
+    def object_half(self) -> np.ndarray:
+        """The target's half extents (m), as HandGrasp's ``object_half``."""
+        return self.objects[self.target].half
 
     @property
     def object_start(self) -> np.ndarray:

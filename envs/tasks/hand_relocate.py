@@ -22,6 +22,7 @@ import numpy as np
 
 from envs.tasks.hand_grasp import HandGraspConfig, HandGraspEnv
 from envs.tasks.registry import register_task
+from envs.tasks.segments import LIFT_M, PickUpSegmentation, Segment, cut, first
 from recorder import quat
 from recorder.config import Positive
 
@@ -42,11 +43,39 @@ class HandRelocateConfig(HandGraspConfig):
         return 0.0  # nothing scripted
 
 
+class RelocateSegmentation(PickUpSegmentation):
+    """Reach and grasp follow the object; the carry (lift, carry, put down) and the release follow the target
+    circle. The carry starts where the object lifts, the release where the hand lets go of it on the table. A
+    source serves a scene with the same shape; the nearest in size is taken, then the one whose circle lies in
+    the most similar direction and distance from the object (the carry is bent the least)."""
+
+    names = ("reach", "grasp", "carry", "release")
+
+    def split(self, trace: dict[str, np.ndarray]) -> list[Segment]:
+        touching, rise = trace["touching"], trace["rise"]
+        touch = first(touching > 0)
+        lift = first(rise > LIFT_M, touch) if touch is not None else None
+        down = first(rise < LIFT_M, lift) if lift is not None else None
+        release = first(touching == 0, down) if down is not None else None
+        return cut(self.names, [touch, lift, release], len(touching), ("object", "object", "target", "target"))
+
+    def anchors(self, env) -> dict[str, np.ndarray]:
+        return {**super().anchors(env), "target": np.array([*env.target, 0.0])}
+
+    def scene(self, env) -> dict:
+        return {**super().scene(env), "target_offset_m": [float(x) for x in env.target - env.object_start[:2]]}
+
+    def distance(self, a: dict, b: dict) -> float:
+        offset = float(np.linalg.norm(np.subtract(a["target_offset_m"], b["target_offset_m"])))
+        return super().distance(a, b) + 0.1 * offset
+
+
 @register_task(
     "relocate",
     env_id="gloverec/HandRelocate-v0",
     demonstrator="recorder.demonstrator.relocate:RelocateDemonstrator",
     live={"terminate_on_success": False},
+    segmentation=RelocateSegmentation(),
 )
 class HandRelocateEnv(HandGraspEnv):
     config_class = HandRelocateConfig

@@ -25,9 +25,10 @@ from typing import Annotated
 import mujoco
 import numpy as np
 
-from envs.tasks.base import HandEnv, TaskConfig
+from envs.tasks.base import BASE_ROTATION, HandEnv, TaskConfig
 from envs.tasks.hand_pinch import robot_pinch
 from envs.tasks.registry import register_task
+from envs.tasks.segments import Segment, Segmentation, cut, first
 from recorder import quat
 from recorder.config import NonNegative, Positive
 from recorder.hand.motion import min_jerk
@@ -61,11 +62,50 @@ class HandTurnConfig(TaskConfig):
         return self.hover_s + self.descend_s
 
 
+class TurnSegmentation(Segmentation):
+    """Grip (the scripted descent, the fingers closing on the knob), turn (from the knob's first 2° until the
+    hand lets go) and release. The base is scripted, so nothing follows a frame: what varies is the knob's size and
+    target angle. A source serves a scene turning the same way; the nearest knob in radius is taken (the grip's
+    finger posture was shaped for its diameter), then the nearest target. Its palm rotation from the turn's start
+    on is scaled by the new target over the source's, so the person's turn, with its timing, ends on the new mark;
+    the fingers are kept."""
+
+    TURNING_DEG = 2.0
+
+    def observe(self, env) -> dict[str, float]:
+        return {"touching": float(len(env.touching())), "angle_deg": np.degrees(env.knob_angle())}
+
+    def split(self, trace: dict[str, np.ndarray]) -> list[Segment]:
+        turn = first(np.abs(trace["angle_deg"]) > self.TURNING_DEG)
+        release = first(trace["touching"] == 0, turn) if turn is not None else None
+        return cut(("grip", "turn", "release"), [turn, release], len(trace["angle_deg"]), (None, None, None))
+
+    def scene(self, env) -> dict:
+        return {"radius_m": float(env.radius), "target_deg": float(np.degrees(env.target))}
+
+    def distance(self, a: dict, b: dict) -> float:
+        if np.sign(a["target_deg"]) != np.sign(b["target_deg"]):
+            return float("inf")
+        return abs(a["radius_m"] - b["radius_m"]) + 1e-4 * abs(a["target_deg"] - b["target_deg"])
+
+    def adapt(self, actions: np.ndarray, segments: list[Segment], source: dict, scene: dict, env) -> np.ndarray:
+        turn = next((s for s in segments if s.name == "turn"), None)
+        if turn is None:
+            return actions
+        first_rot = env.action_names.index(BASE_ROTATION[0])
+        rot = slice(first_rot, first_rot + 3)
+        k = scene["target_deg"] / source["target_deg"]
+        out = actions.copy()
+        out[turn.start :, rot] = actions[turn.start, rot] + k * (actions[turn.start :, rot] - actions[turn.start, rot])
+        return out
+
+
 @register_task(
     "turn",
     env_id="gloverec/HandTurn-v0",
     demonstrator="recorder.demonstrator.turn:TurnDemonstrator",
     live={"episode_s": 1e9, "terminate_on_success": False},  # `gloverec view`: one knob until "next"
+    segmentation=TurnSegmentation(),
 )
 class HandTurnEnv(HandEnv):
     config_class = HandTurnConfig

@@ -9,7 +9,8 @@ What the registry carries per task: its name, the environment class (and through
 instruction text of an episode, ``HandEnv.instruction``, and the environment-state names), the Gymnasium id, the
 scripted demonstrator (a class, or "module:Class" for one in a layer above envs, which imports no layer above it:
 recorder/demonstrator resolves it) and what a live view changes (``live``: options for `gloverec view`'s endless
-scenes, e.g. no termination on success). What a view draws besides comes from the environment's hooks:
+scenes, e.g. no termination on success), and how its demonstrations split into segments for `gloverec
+generate` (``segmentation``, envs/tasks/segments.py; a task without one cannot be generated from). What a view draws besides comes from the environment's hooks:
 ``goal_qpos`` (a target drawn as a ghost) and ``schedule`` (the next scripted move, "lift in 1.2 s").
 """
 
@@ -30,6 +31,7 @@ class TaskSpec:
     env_id: str  # its Gymnasium id (gym.make(env_id, robot=...))
     demonstrator: type | str | None = None  # the scripted demonstrator: a class or "module:Class"
     live: dict = field(default_factory=dict)  # options of `gloverec view`'s endless live scenes
+    segmentation: object = None  # how its demonstrations split, for `gloverec generate` (envs/tasks/segments.py)
 
     @property
     def config_class(self) -> type:
@@ -40,7 +42,7 @@ _TASKS: dict[str, TaskSpec] = {}
 
 
 def register_task(name: str, *, demonstrator: type | str | None = None, env_id: str | None = None,
-                  live: dict | None = None):  # fmt: skip
+                  live: dict | None = None, segmentation=None):  # fmt: skip
     """Class decorator: register a HandEnv subclass as task ``name`` (and with Gymnasium, as ``env_id``, by default
     ``gloverec/<ClassName without Env>-v0``). Registering a name twice is an error unless it is the same class."""
 
@@ -49,7 +51,7 @@ def register_task(name: str, *, demonstrator: type | str | None = None, env_id: 
         if old is not None and old.env.__qualname__ != cls.__qualname__:
             raise ConfigError(f"task {name!r} is registered already (by {old.env.__module__}.{old.env.__qualname__})")
         spec = TaskSpec(name, cls, env_id or f"gloverec/{cls.__name__.removesuffix('Env')}-v0", demonstrator,
-                        dict(live or {}))  # fmt: skip
+                        dict(live or {}), segmentation)  # fmt: skip
         cls.task_name = name
         _TASKS[name] = spec
         if spec.env_id in gym.registry:

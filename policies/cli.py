@@ -288,9 +288,11 @@ def cmd_generate(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(out))
     else:
-        print(f"generated {out['accepted']} episodes of {out['task']} on {out['robot']} from {len(out['sources'])} "
-              f"of {ref.repo_id}: {out['accepted']}/{out['attempts']} scenes accepted "
-              f"({100 * out['acceptance_rate']:.0f} %), {out['accepted_per_min']:.1f} per minute, into {out['root']}")
+        print(
+            f"generated {out['accepted']} episodes of {out['task']} on {out['robot']} from {len(out['sources'])} "
+            f"of {ref.repo_id}: {out['accepted']}/{out['attempts']} scenes accepted "
+            f"({100 * out['acceptance_rate']:.0f} %), {out['accepted_per_min']:.1f} per minute, into {out['root']}"
+        )
         for why, n in sorted(out["rejected_because"].items(), key=lambda kv: -kv[1]):
             print(f"  rejected {n}: {why}")
     if out["accepted"] < args.episodes:

@@ -34,6 +34,7 @@ is the action's palm pose, always tracked.
 
 from __future__ import annotations
 
+import re
 import sys
 import time
 from dataclasses import dataclass, field
@@ -53,6 +54,7 @@ from recorder.record.writer import EpisodeWriter
 from recorder.wrist.fusion import FusedWrist
 
 DEVICE_BASE_S = 1.0e6  # a generated episode's time.device_s starts here + 100 s per episode index
+FADE = 0.5  # the jump into a moved segment fades over this share of it; the rest is the source, moved
 DRIFT = 1e-4  # a source whose replay leaves its recorded states by more is not used
 GLOVE_COLUMNS = ("observation.glove", "quality.glove_valid", "quality.fusion", "quality.retarget_error_mm")
 
@@ -192,7 +194,7 @@ class Generator:
                 moved[segment.anchor] = max(moved.get(segment.anchor, 0.0), float(np.linalg.norm(shift)))
                 a[:, self.pos] += shift
                 jump = last - a[0, self.pos]  # from where the hand is to where the moved segment begins
-                fade = 1.0 - min_jerk(np.arange(len(a)) / max(len(a) - 1, 1))
+                fade = 1.0 - min_jerk(np.arange(len(a)) / max(FADE * (len(a) - 1), 1))
                 a[:, self.pos] += fade[:, None] * jump
             for row in a:
                 obs, info, done = self._step(obs, row, src.glove_at(k), on_frame)
@@ -259,7 +261,7 @@ def generate(ref: DatasetRef, root, repo_id: str, cfg: GenerateConfig, progress:
             out = gen.run(seed, frames.add)
             if not out["success"]:
                 store.discard_episode()
-                reason = out.get("why") or u.failure() or "not a success"
+                reason = re.sub(r"\d+(\.\d+)?", "#", out.get("why") or u.failure() or "not a success")
                 why[reason] = why.get(reason, 0) + 1
             else:
                 src = out["source"]

@@ -69,7 +69,7 @@ class PickObject:
 
 
 @register_task("pick", env_id="gloverec/HandPick-v0", demonstrator="recorder.demonstrator.pick:PickDemonstrator",
-               live={"terminate_on_success": False}, segmentation=PickUpSegmentation())  # fmt: skip
+               live={"terminate_on_success": False}, segmentation=PickUpSegmentation(position_weight=0.3))  # fmt: skip
 class HandPickEnv(HandEnv):
     config_class = HandPickConfig
     workspace = (0.0, 0.0, 0.10)

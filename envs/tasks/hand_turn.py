@@ -230,6 +230,19 @@ class HandTurnEnv(HandEnv):
         return {**super()._info(success), "target_deg": round(float(np.degrees(self.target)), 1),
                 "angle_deg": round(float(np.degrees(self.knob_angle())), 1)}  # fmt: skip
 
+    def failure(self) -> str | None:
+        off = self.error_deg()
+        if abs(off) > self.config.tolerance_deg:
+            moved = np.degrees(self.knob_angle())
+            return (
+                "never turned"
+                if abs(moved) < 2
+                else f"ended {abs(off):.0f}° {'past' if off * self.target > 0 else 'short of'} the mark"
+            )
+        if self.touching():
+            return "at the mark, still held"
+        return "at the mark, not held there long enough" if self._held_s < self.config.hold_s else None
+
     def guidance(self) -> str | None:
         if self.t < self.schedule.get("grip", 0.0):
             return None

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 LIFT_M = 0.01  # the object has lifted: its centre this much above where it started
+OTHER_SHAPE = 1.0  # a source of another shape is this far from a scene (any of the same shape is nearer)
 
 
 @dataclass(frozen=True)
@@ -86,6 +87,9 @@ class PickUpSegmentation(Segmentation):
 
     names: tuple[str, ...] = ("reach", "grasp", "lift")
 
+    def __init__(self, position_weight: float = 0.0):
+        self.position_weight = position_weight  # a reach from a fixed home: prefer a source reaching the same way
+
     def observe(self, env) -> dict[str, float]:
         pose, start = env.object_pose(), env.object_start
         return {"touching": float(env.hand_contacts(env.object_geom)), "rise": float(pose[2] - start[2])}
@@ -100,10 +104,10 @@ class PickUpSegmentation(Segmentation):
         return {"object": env.object_pose()[:3].copy()}
 
     def scene(self, env) -> dict:
-        return {"shape": env.object_shape, "half_m": [float(x) for x in env.object_half]}
+        return {"shape": env.object_shape, "half_m": [float(x) for x in env.object_half],
+                "position_m": [float(x) for x in env.object_start[:2]]}  # fmt: skip
 
     def distance(self, a: dict, b: dict) -> float:
-        if a["shape"] != b["shape"]:
-            return float("inf")
-        return float(np.abs(np.subtract(a["half_m"], b["half_m"])).sum())
-
+        other = OTHER_SHAPE if a["shape"] != b["shape"] else 0.0  # taken only when no source has the shape
+        size = other + float(np.abs(np.subtract(a["half_m"], b["half_m"])).sum())
+        return size + self.position_weight * float(np.linalg.norm(np.subtract(a["position_m"], b["position_m"])))

@@ -85,6 +85,7 @@ class Session:
     def _row(self, e: int) -> dict:
         meta, rec = self.episodes[e], self.records.get(e, {})
         intent = rec.get("demonstration") or {}
+        gen = rec.get("generated")
         return {
             "episode": e,
             "frames": self.lengths[e],
@@ -94,6 +95,8 @@ class Session:
             "glove_late": rec.get("glove_late"),
             "glove_dropped": rec.get("glove_dropped"),
             "seed": rec.get("seed"),
+            # a generated episode's source (`gloverec generate`): the page's "from" column and its filter
+            "source": f"ep {gen.get('source_episode')} of {(gen.get('from') or {}).get('repo_id')}" if gen else None,
             "intent": "; ".join(filter(None, (
                 ", ".join(f"{k} {v}" for k, v in intent.items() if k in ("strategy", "failure") and v),
                 *episode_notes(rec),  # a takeover's share, a blow-up (the joint plots jump there)

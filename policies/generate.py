@@ -93,8 +93,8 @@ def check_source(ref: DatasetRef):
 
     records = sidecar(ref.root)
     if not records:
-        raise GloverecError(f"{ref.root} has no gloverec episode records (meta/gloverec/episodes.jsonl): "
-                            "generate needs each episode's seed and task, as `gloverec record` writes them")  # fmt: skip
+        raise GloverecError(f"{ref.root} has no gloverec episode records (meta/gloverec/episodes.jsonl): generate "
+                            "needs each episode's seed and task, as `gloverec record` writes them")  # fmt: skip
     first = records[min(records)]
     name = first.get("env_task")
     if not name:
@@ -172,7 +172,8 @@ class Generator:
 
     def run(self, seed: int, on_frame) -> dict:
         """One generated episode on scene ``seed``; ``on_frame(obs, action, intended, glove)`` per frame (glove:
-        the source frame's glove columns). Returns what its record says of it (success, source, segments, how far the frames moved)."""
+        the source frame's glove columns). Returns what its record says of it (success, source, segments, how far
+        the frames moved)."""
         env, u, seg = self.env, self.u, self.seg
         obs, _ = env.reset(seed=seed)
         scene = seg.scene(u)

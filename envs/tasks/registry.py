@@ -11,7 +11,8 @@ scripted demonstrator (a class, or "module:Class" for one in a layer above envs,
 recorder/demonstrator resolves it) and what a live view changes (``live``: options for `gloverec view`'s endless
 scenes, e.g. no termination on success), and how its demonstrations split into segments for `gloverec
 generate` (``segmentation``, envs/tasks/segments.py; a task without one cannot be generated from). What a view
-draws besides comes from the environment's hooks: ``goal_qpos`` (a target drawn as a ghost) and ``schedule`` (the next scripted move, "lift in 1.2 s").
+draws besides comes from the environment's hooks: ``goal_qpos`` (a target drawn as a ghost) and ``schedule`` (the
+next scripted move, "lift in 1.2 s").
 """
 
 from __future__ import annotations

@@ -104,7 +104,7 @@ def add_parsers(subparsers) -> None:
     g.add_argument("--dart", type=float, default=0.0, metavar="SCALE",
                    help="DART noise on the executed actions, a share of each element's range (the generated "
                    "action kept as expert.action; default 0: none)")  # fmt: skip
-    g.add_argument("--dart-time-s", type=float, default=0.3, help="the noise's correlation time (default 0.3 s)")
+    g.add_argument("--dart-time-s", type=float, default=0.2, help="the noise's correlation time (default 0.2 s)")
     g.add_argument("--json", action="store_true", help="print one JSON object at the end")
     g.set_defaults(func=cmd_generate)
 

@@ -84,7 +84,7 @@ class GenerateConfig:
     max_attempts: int | None = None  # default: 5 per episode wanted
     scene: dict = field(default_factory=dict)  # task config overrides: wider ranges than the source's
     dart: float = 0.0
-    dart_time_s: float = 0.3
+    dart_time_s: float = 0.2
 
 
 def check_source(ref: DatasetRef):

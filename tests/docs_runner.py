@@ -61,6 +61,7 @@ def blocks(doc: Path) -> list[Block]:
 def substitute(text: str, work: Path) -> str:
     """The documented substitutions (module docstring)."""
     text = re.sub(r"(?<![\w./])/tmp/", f"{work}/", text).replace("/dev/ttyACM0", str(work / "ttyACM0"))
+    text = re.sub(r"(?<![\w./])configs/", f"{ROOT}/configs/", text)  # the checkout's, as from its root
     for flag, cap in CAPS.items():
         text = re.sub(
             rf"({re.escape(flag)}[ =])(\d+(?:\.\d+)?)",

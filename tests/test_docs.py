@@ -14,7 +14,8 @@ Each run block runs as a bash script (`set -e`; background jobs stopped at its e
 with the document's write= blocks before it written there, HF_HUB_OFFLINE=1 and MUJOCO_GL=egl, and with only these
 substitutions, so a user's command and the tested one stay the same:
 - folders and ports: /tmp/... -> the working folder (/tmp/glove: its glove link), /dev/ttyACM0 -> an emulated glove
-  started for the block on a pseudo-terminal in the working folder;
+  started for the block on a pseudo-terminal in the working folder; configs/... (a file of the repository, as a
+  user at its root names it) -> the checkout's;
 - fewer and shorter: --episodes, --dataset.num_episodes and --eval.n_episodes at most 2, --steps at most 50,
   --duration at most 2 s, lerobot-record's --dataset.episode_time_s at most 3 s and --dataset.reset_time_s at most 1 s,
   lerobot-teleoperate's --teleop_time_s at most 2 s.
@@ -64,4 +65,7 @@ def test_the_substitutions_are_only_the_documented_ones(tmp_path):
     assert substitute(text, tmp_path) == (
         f"gloverec record --episodes 2 --steps 50 --glove {tmp_path}/glove --plot {tmp_path}/ep0.png "
         "--dataset.num_episodes=1"
+    )
+    assert substitute("gloverec train --config configs/train/history.yaml --out /tmp/x", tmp_path) == (
+        f"gloverec train --config {ROOT}/configs/train/history.yaml --out {tmp_path}/x"
     )

@@ -78,7 +78,8 @@ def one(task: str, robot: str, args, tmp: Path) -> dict:
     for size in args.sizes:
         root = tmp / f"gen_{task}_{robot}_{size}"
         g = gloverec("generate", "--from", src["root"], "--out", str(root), "--episodes", str(size - made),
-                     "--seeds", str(seed), "--max-attempts", str(10 * (size - made)), "--repo-id", f"bench/gen_{task}_{robot}_{size}")  # fmt: skip
+                     "--seeds", str(seed), "--max-attempts", str(10 * (size - made)), "--repo-id",
+                     f"bench/gen_{task}_{robot}_{size}")  # fmt: skip
         chunks.append({k: g[k] for k in ("accepted", "attempts", "acceptance_rate", "wall_s", "accepted_per_min",
                                          "rejected_because", "seeds")})  # fmt: skip
         seed, made = g["seeds"][1] + 1, size

@@ -32,6 +32,7 @@ import numpy as np
 from envs.tasks import postures
 from envs.tasks.base import HandEnv, TaskConfig
 from envs.tasks.registry import register_task
+from envs.tasks.segments import LIFT_M, Segment, Segmentation, cut, first
 from recorder import quat
 from recorder.config import NonNegative, Positive
 from recorder.hand.kinematics import JOINTS
@@ -147,7 +148,53 @@ class HandPinchConfig(TaskConfig):
         return self.hover_s + self.descend_s + self.close_s + self.lift_s
 
 
-@register_task("pinch", env_id="gloverec/HandPinch-v0", demonstrator="recorder.demonstrator.pinch:PinchDemonstrator")
+class PinchSegmentation(Segmentation):
+    """Close (until a hand body first touches the object), pinch (until it lifts 1 cm) and lift. The base is
+    scripted, so nothing follows a frame: what varies is the object (shape, width) and the named finger. A source
+    serves a scene naming the same finger; the nearest width is taken, then the same shape. The grasp posture depends
+    on the width (``robot_pinch`` searches it per millimetre, as the task does for its base), so it is planned again
+    for the new object and the person's timing kept: each frame's actuator targets move by the difference between
+    the robot's pinch postures for the new width and the source's, times how far the source's hand has closed by
+    then (0 open, 1 at the lift)."""
+
+    SHAPE_MM = 5.0  # another shape counts as this much more width apart
+
+    def observe(self, env) -> dict[str, float]:
+        return {"touching": float(len(env.touching())), "rise": float(env.object_pose()[2] - env.object_start[2])}
+
+    def split(self, trace: dict[str, np.ndarray]) -> list[Segment]:
+        touch = first(trace["touching"] > 0)
+        lift = first(trace["rise"] > LIFT_M, touch) if touch is not None else None
+        return cut(("close", "pinch", "lift"), [touch, lift], len(trace["rise"]), (None, None, None))
+
+    def scene(self, env) -> dict:
+        return {"finger": env.finger, "shape": env.object_shape, "gap_mm": env.pinch_gap_mm()}
+
+    def distance(self, a: dict, b: dict) -> float:
+        if a["finger"] != b["finger"]:
+            return float("inf")
+        return abs(a["gap_mm"] - b["gap_mm"]) + self.SHAPE_MM * (a["shape"] != b["shape"])
+
+    def adapt(self, actions: np.ndarray, segments: list[Segment], source: dict, scene: dict, env) -> np.ndarray:
+        nu = len(env.robot.actuator_names)
+        lift = next((s.start for s in segments if s.name == "lift"), len(actions) - 1)
+        a = actions[:, :nu]
+        close = a[lift] - a[0]
+        if not close @ close:
+            return actions
+        progress = np.clip((a - a[0]) @ close / (close @ close), 0.0, 1.0)
+        joint_map = postures.retargeter(env.robot.config.name).joint_map
+
+        def targets(gap_mm: int) -> np.ndarray:
+            return joint_map(pinch_angles(env.finger, env.robot_pinch(int(gap_mm))[0]))
+
+        out = actions.copy()
+        out[:, :nu] += progress[:, None] * (targets(scene["gap_mm"]) - targets(source["gap_mm"]))
+        return out
+
+
+@register_task("pinch", env_id="gloverec/HandPinch-v0", demonstrator="recorder.demonstrator.pinch:PinchDemonstrator",
+               segmentation=PinchSegmentation())  # fmt: skip
 class HandPinchEnv(HandEnv):
     config_class = HandPinchConfig
     view_distance_m = 0.5  # keys, knobs and marbles are small

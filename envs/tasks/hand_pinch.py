@@ -149,8 +149,8 @@ class HandPinchConfig(TaskConfig):
 
 
 class PinchSegmentation(Segmentation):
-    """Close (until a hand body first touches the object), pinch (until it lifts 1 cm) and lift. The base is
-    scripted, so nothing follows a frame: what varies is the object (shape, width) and the named finger. A source
+    """Close (until a hand body first touches the object), pinch (until it lifts 1 cm) and lift, each following the
+    object where the wrist is free (recorded with --wrist). The base is scripted otherwise: what varies is the object (shape, width) and the named finger. A source
     serves a scene naming the same finger; the nearest width is taken, then the same shape. The grasp posture depends
     on the width (``robot_pinch`` searches it per millimetre, as the task does for its base), so it is planned again
     for the new object and the person's timing kept: each frame's actuator targets move by the difference between
@@ -165,7 +165,10 @@ class PinchSegmentation(Segmentation):
     def split(self, trace: dict[str, np.ndarray]) -> list[Segment]:
         touch = first(trace["touching"] > 0)
         lift = first(trace["rise"] > LIFT_M, touch) if touch is not None else None
-        return cut(("close", "pinch", "lift"), [touch, lift], len(trace["rise"]), (None, None, None))
+        return cut(("close", "pinch", "lift"), [touch, lift], len(trace["rise"]), ("object",) * 3)
+
+    def anchors(self, env) -> dict[str, np.ndarray]:
+        return {"object": env.object_pose()[:3].copy()}  # followed by a free wrist (--wrist) only
 
     def scene(self, env) -> dict:
         return {"finger": env.finger, "shape": env.object_shape, "gap_mm": env.pinch_gap_mm()}

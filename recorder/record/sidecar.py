@@ -21,14 +21,14 @@ SIDECAR = "meta/gloverec/episodes.jsonl"
 _START = "stats/time.device_s/min"  # lerobot's per-episode stats column of the first frame's device time
 
 
-def episode_notes(record: dict) -> list[str]:
+def episode_notes(record: dict, source: bool = True) -> list[str]:
     """What a person should know of an episode beyond its success, from its record: where a generated one came
     from (`gloverec generate`), why it failed (as its task
     saw the end), how much a takeover's wearer drove, and where MuJoCo reset a blown-up simulation (the saved line,
     inspect and review say the same)."""
     notes = []
     gen = record.get("generated")
-    if gen:
+    if gen and source:  # (review's list has a column of its own for it)
         moved = ", ".join(f"{k} {100 * v:.0f} cm" for k, v in (gen.get("moved_m") or {}).items())
         notes.append(f"generated from episode {gen.get('source_episode')} of {(gen.get('from') or {}).get('repo_id')}"
                      + (f" ({moved} moved)" if moved else ""))  # fmt: skip

@@ -99,7 +99,7 @@ class Session:
             "source": f"ep {gen.get('source_episode')} of {(gen.get('from') or {}).get('repo_id')}" if gen else None,
             "intent": "; ".join(filter(None, (
                 ", ".join(f"{k} {v}" for k, v in intent.items() if k in ("strategy", "failure") and v),
-                *episode_notes(rec),  # a takeover's share, a blow-up (the joint plots jump there)
+                *episode_notes(rec, source=False),  # a takeover's share, a blow-up (the joint plots jump there)
             ))) or None,
         }  # fmt: skip
 

@@ -151,11 +151,11 @@ class HandPinchConfig(TaskConfig):
 class PinchSegmentation(Segmentation):
     """Close (until a hand body first touches the object), pinch (until it lifts 1 cm) and lift, each following the
     object where the wrist is free (recorded with --wrist). The base is scripted otherwise: what varies is the
-    object (shape, width) and the named finger. A source serves a scene naming the same finger; the nearest width is taken, then the same shape. The grasp posture depends
-    on the width (``robot_pinch`` searches it per millimetre, as the task does for its base), so it is planned again
-    for the new object and the person's timing kept: each frame's actuator targets move by the difference between
-    the robot's pinch postures for the new width and the source's, times how far the source's hand has closed by
-    then (0 open, 1 at the lift)."""
+    object (shape, width) and the named finger. A source serves a scene naming the same finger; the nearest width is
+    taken, then the same shape. The grasp posture depends on the width (``robot_pinch`` searches it per millimetre,
+    as the task does for its base), so it is planned again for the new object and the person's timing kept: each
+    frame's actuator targets move by the difference between the robot's pinch postures for the new width and the
+    source's, times how far the source's hand has closed by then (0 open, 1 at the lift)."""
 
     SHAPE_MM = 5.0  # another shape counts as this much more width apart
 

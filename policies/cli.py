@@ -93,7 +93,10 @@ def add_parsers(subparsers) -> None:
     g.add_argument("--hub", help=HUB_HELP)
     g.add_argument("--out", required=True, help="the new dataset's folder (must not exist)")
     g.add_argument("--repo-id", help="the new dataset's id (default: the source's with _generated)")
-    g.add_argument("--episodes", type=positive_int, default=100, help="successful episodes to generate (default 100)")
+    g.add_argument("--episodes", type=positive_int, default=100, help="successful episodes to generate (default 100; "
+                   "with --resume, the total the dataset should hold)")  # fmt: skip
+    g.add_argument("--resume", action="store_true", help="add to --out, a generation cut short, until it holds "
+                   "--episodes (on the seeds after its last; the same --from, --scene and --dart)")  # fmt: skip
     g.add_argument("--seeds", type=_seeds, default=(10000, None), metavar="FIRST[-LAST]",
                    help="the new scenes' seeds: from FIRST on, one per attempt (default 10000, away from the "
                    "recorder's 0, 1, ... and the evaluation's 100000 on); FIRST-LAST: only those")  # fmt: skip
@@ -270,7 +273,10 @@ def cmd_generate(args: argparse.Namespace) -> int:
     from recorder.record.store import check_root
 
     ref = _also(args.source, args.hub)  # a missing or damaged dataset: one line, before LeRobot loads
-    check_root(args.out, resume=False)
+    if Path(args.out).exists() and not args.resume:
+        raise GloverecError(f"--out {args.out} already exists: choose another folder, or pass --resume to generate "
+                            "more into it")  # fmt: skip
+    check_root(args.out, resume=args.resume)
     repo_id = args.repo_id or f"{ref.repo_id}_generated"
     first, last = args.seeds
     attempts = args.max_attempts or (last - first + 1 if last is not None else None)
@@ -282,7 +288,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
     from policies.generate import GenerateConfig, generate  # torch, lerobot and mujoco: not at start-up
 
     cfg = GenerateConfig(episodes=args.episodes, seed=first, max_attempts=attempts, scene=dict(args.scene),
-                         dart=args.dart, dart_time_s=args.dart_time_s)  # fmt: skip
+                         dart=args.dart, dart_time_s=args.dart_time_s, resume=args.resume)  # fmt: skip
     with _quiet_stdout(args.json), _setup():
         out = generate(ref, args.out, repo_id, cfg, progress=sys.stderr.isatty() or not args.json)
     if args.json:
@@ -295,9 +301,9 @@ def cmd_generate(args: argparse.Namespace) -> int:
         )
         for why, n in sorted(out["rejected_because"].items(), key=lambda kv: -kv[1]):
             print(f"  rejected {n}: {why}")
-    if out["accepted"] < args.episodes:
-        raise GloverecError(f"only {out['accepted']} of the {args.episodes} episodes were generated in "
-                            f"{out['attempts']} scenes: pass more --seeds or --max-attempts")  # fmt: skip
+    if out["accepted"] < out["wanted"]:
+        raise GloverecError(f"only {out['accepted']} of the {out['wanted']} episodes were generated in "
+                            f"{out['attempts']} scenes: pass more --seeds or --max-attempts, or --resume")  # fmt: skip
     return 0
 
 

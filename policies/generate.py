@@ -85,6 +85,7 @@ class GenerateConfig:
     scene: dict = field(default_factory=dict)  # task config overrides: wider ranges than the source's
     dart: float = 0.0
     dart_time_s: float = 0.2
+    resume: bool = False  # add to a generated dataset until it holds ``episodes``, on the seeds after its last
 
 
 def check_source(ref: DatasetRef):
@@ -227,7 +228,8 @@ def generate(ref: DatasetRef, root, repo_id: str, cfg: GenerateConfig, progress:
 
     say = say or (lambda text: print(text, file=sys.stderr, flush=True))
     spec, first, records = check_source(ref)
-    check_root(root, resume=False)
+    check_root(root, resume=cfg.resume)
+    have = _resumed(root, ref, cfg) if cfg.resume else []
     from policies.data import dataset_info
 
     info = dataset_info(ref.root)
@@ -246,16 +248,18 @@ def generate(ref: DatasetRef, root, repo_id: str, cfg: GenerateConfig, progress:
     space = env.action_space
     dart = Dart(cfg.dart, cfg.dart_time_s, space.low, space.high, fps) if cfg.dart else None
     schema = DatasetSchema(u, use_videos=bool(u.config.cameras), expert=dart is not None)
-    store = EpisodeStore(root, repo_id, fps, schema.lerobot_features(), robot_type=robot,
+    store = EpisodeStore(root, repo_id, fps, schema.lerobot_features(), robot_type=robot, resume=cfg.resume,
                          use_videos=bool(u.config.cameras))  # fmt: skip
     writer = EpisodeWriter(store)
     gen = Generator(env, spec.segmentation, sources, dart)
-    attempts = cfg.max_attempts or 5 * cfg.episodes
+    wanted = cfg.episodes - len(have)
+    first_seed = max([cfg.seed, *(r["seed"] + 1 for r in have)])
+    attempts = cfg.max_attempts or 5 * wanted
     accepted, tried, why = [], 0, {}
-    bar = tqdm(total=cfg.episodes, desc=f"generating {spec.name} on {robot}", unit="episode", disable=not progress)
+    bar = tqdm(total=wanted, desc=f"generating {spec.name} on {robot}", unit="episode", disable=not progress)
     try:
-        while len(accepted) < cfg.episodes and tried < attempts:
-            seed = cfg.seed + tried
+        while len(accepted) < wanted and tried < attempts:
+            seed = first_seed + tried
             tried += 1
             index = store.next_index
             frames = _Frames(schema, store, u, index, fps)
@@ -295,10 +299,30 @@ def generate(ref: DatasetRef, root, repo_id: str, cfg: GenerateConfig, progress:
         "root": str(root), "repo_id": repo_id, "task": spec.name, "robot": robot, "from": ref.as_dict(),
         "sources": [s.episode for s in sources], "accepted": len(accepted), "attempts": tried,
         "acceptance_rate": len(accepted) / tried if tried else 0.0, "rejected_because": why,
-        "seeds": [cfg.seed, cfg.seed + tried - 1] if tried else [], "wall_s": round(wall, 1),
+        "seeds": [first_seed, first_seed + tried - 1] if tried else [], "wall_s": round(wall, 1),
+        "episodes": len(have) + len(accepted), "wanted": wanted,
         "accepted_per_min": round(60 * len(accepted) / wall, 1) if wall else 0.0,
         "dart": dart.summary() if dart is not None else None, "scene": cfg.scene,
     }  # fmt: skip
+
+
+def _resumed(root, ref: DatasetRef, cfg: GenerateConfig) -> list[dict]:
+    """The episode records of the generated dataset ``root`` that a resumed generation adds to; one line if it
+    was generated from another dataset or with other settings."""
+    records = list(sidecar(root).values())
+    if not records or "generated" not in records[0]:
+        raise GloverecError(f"{root} was not made by gloverec generate: --resume adds to a generated dataset")
+    made = records[0]
+    if made["generated"]["from"]["root"] != str(ref.root):
+        raise GloverecError(f"{root} was generated from {made['generated']['from']['root']}, not {ref.root}")
+    scene = {k: tuple(v) if isinstance(v, list) else v for k, v in made.get("env_options", {}).items()}
+    dart = (made["generated"].get("dart") or {}).get("scale", 0.0)
+    if scene != cfg.scene or dart != cfg.dart:
+        raise GloverecError(f"{root} was generated with --scene {made.get('env_options')} and --dart {dart}: "
+                            "resume it with the same")  # fmt: skip
+    if len(records) >= cfg.episodes:
+        raise GloverecError(f"{root} holds {len(records)} episodes already (--episodes {cfg.episodes} is the total)")
+    return records
 
 
 class _Frames:

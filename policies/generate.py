@@ -241,7 +241,6 @@ def generate(ref: DatasetRef, root, repo_id: str, cfg: GenerateConfig, progress:
     except ValueError as exc:
         raise GloverecError(f"--scene: {exc}") from None
     t0 = time.perf_counter()
-    sources = load_sources(ref, spec, records, source_options, robot, say)
     env = envs.make(spec.name, robot, **options)
     u = env.unwrapped
     fps = int(round(options["control_hz"]))
@@ -250,7 +249,14 @@ def generate(ref: DatasetRef, root, repo_id: str, cfg: GenerateConfig, progress:
     schema = DatasetSchema(u, use_videos=bool(u.config.cameras), expert=dart is not None)
     store = EpisodeStore(root, repo_id, fps, schema.lerobot_features(), robot_type=robot, resume=cfg.resume,
                          use_videos=bool(u.config.cameras))  # fmt: skip
-    writer = EpisodeWriter(store)
+    writer = EpisodeWriter(store)  # forked before the sources load (LeRobot's reader starts threads)
+    try:
+        sources = load_sources(ref, spec, records, source_options, robot, say)
+    except BaseException:
+        writer.close()
+        store.close(discard_empty=True)  # nothing published: a new folder is removed again
+        env.close()
+        raise
     gen = Generator(env, spec.segmentation, sources, dart)
     wanted = cfg.episodes - len(have)
     first_seed = max([cfg.seed, *(r["seed"] + 1 for r in have)])

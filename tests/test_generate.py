@@ -6,6 +6,7 @@ the refusals."""
 from __future__ import annotations
 
 import json
+import os
 import shutil
 
 import numpy as np
@@ -52,6 +53,23 @@ def test_a_generated_episode_names_its_source_and_replays_exactly(generated):
     assert replayed.returncode == 0, replayed.stderr
     r = json.loads(replayed.stdout)
     assert r["max_abs"] == 0 and r["replayed_success"] and r["seed"] == records[1]["seed"]
+
+
+def test_a_generation_goes_on_with_resume_and_refuses_other_settings(generated, tmp_path):
+    out = tmp_path / "more"  # a copy of the generated dataset, its store's state folder and its link
+    shutil.copytree(generated / ".relocate1000.gloverec", tmp_path / ".more.gloverec", symlinks=True)
+    os.symlink(os.readlink(generated / "relocate1000").replace(".relocate1000.", ".more."), out)
+    src = str(generated / "relocate10")
+    again = cli("generate", "--from", src, "--out", str(out), "--episodes", "3")
+    assert again.returncode == 1 and "already exists" in again.stderr and "--resume" in again.stderr
+    other = cli("generate", "--from", src, "--out", str(out), "--episodes", "3", "--resume")  # no --scene this time
+    assert other.returncode == 1 and "resume it with the same" in other.stderr, other.stderr
+    more = cli("generate", "--from", src, "--out", str(out), "--episodes", "3", "--resume", "--scene",
+               "placement_m=0.08", "--json")  # fmt: skip
+    assert more.returncode == 0, more.stderr
+    records = _records(out)
+    first = _records(generated / "relocate1000")
+    assert len(records) == 3 and records[:2] == first and records[2]["seed"] > first[1]["seed"]
 
 
 def test_the_segments_match_the_events_in_the_recorded_states(generated):

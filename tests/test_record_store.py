@@ -50,13 +50,14 @@ def check_dataset(root, min_episodes):
 @pytest.mark.timeout(240)
 def test_sigkill_at_many_moments_keeps_every_saved_episode(tmp_path):
     """Each writer is a process of its own, killed with SIGKILL; they are forked by a forkserver that has imported
-    the store once (a fresh interpreter per writer spent most of this test importing LeRobot)."""
+    the store and LeRobot once (a fresh interpreter per writer spent most of this test importing LeRobot, and the
+    store imports LeRobot only when it opens)."""
     import multiprocessing
 
     from conftest import wait_for
 
     ctx = multiprocessing.get_context("forkserver")
-    ctx.set_forkserver_preload(["recorder.record.store"])
+    ctx.set_forkserver_preload(["recorder.record.store", "lerobot.datasets.lerobot_dataset"])  # the store opens it
     root = tmp_path / "ds"
     saved = 0
     rng = np.random.default_rng(7)

@@ -12,7 +12,8 @@
    size, ...), and its segments are executed one after another: at each segment's start the frame it follows is
    read in the new scene, and the free wrist's positions of the segment are moved by how far that frame lies from
    where it lay in the source at the same point. The jump this leaves at the start of a segment (from where the
-   hand is to where the moved segment begins) decays smoothly over the segment, so segments join without a step.
+   hand is to where the moved segment begins) fades out smoothly over the segment's first half (``FADE``), so
+   segments join without a step and the rest of each is the person's motion, moved.
    The hand's joints are the person's, frame for frame; a fixed-base task adapts the actions instead (turn: the
    palm's turn scaled to the new target). After the source's last frame the last action holds.
 3. **Keep what succeeds.** An episode is saved only if the task succeeds; the others are dropped. The dataset is
@@ -20,13 +21,14 @@
    killed generation loses at most the episode in progress.
 
 ``--dart SCALE`` adds DART's noise (recorder/record/dart.py, the recorder's own) to the executed actions, with the
-generated action kept as ``expert.action``: the policy sees the hand pushed off the path and brought back.
+generated action kept as ``expert.action``. The plan runs open loop, so nothing steers back: the takes the noise
+spoils are dropped, and the kept ones show the noise with the plan's own next targets.
 
 What a generated episode holds where the recorder stores a glove: ``observation.glove``, ``quality.glove_valid``,
 ``quality.fusion`` and ``quality.retarget_error_mm`` are the source frame's (the person's hand as the glove
 measured it, at the frame the action came from); ``quality.latency_ms`` is -1 (not measured) and
 ``quality.glove_age_ms`` 0. There was no glove clock: ``time.device_s`` is a generation clock, ``DEVICE_BASE_S``
-plus 100 s per episode index plus the frame's time, so that each episode's first frame time, which the sidecar
+plus ``DEVICE_STRIDE_S`` per episode index plus the frame's time, so that each episode's first frame time, which the sidecar
 matches episodes by, is unique and far from any glove's (a glove's clock starts at 0 when it powers up).
 ``time.host_s`` is the host's monotonic clock as the frame was generated. A free wrist's ``observation.wrist``
 is the action's palm pose, always tracked.
@@ -53,7 +55,8 @@ from recorder.record.store import EpisodeStore, check_root
 from recorder.record.writer import EpisodeWriter
 from recorder.wrist.fusion import FusedWrist
 
-DEVICE_BASE_S = 1.0e6  # a generated episode's time.device_s starts here + 100 s per episode index
+DEVICE_BASE_S = 1.0e6  # a generated episode's time.device_s starts here + DEVICE_STRIDE_S per episode index
+DEVICE_STRIDE_S = 1000.0  # longer than any episode
 FADE = 0.5  # the jump into a moved segment fades over this share of it; the rest is the source, moved
 DRIFT = 1e-4  # a source whose replay leaves its recorded states by more is not used
 GLOVE_COLUMNS = ("observation.glove", "quality.glove_valid", "quality.fusion", "quality.retarget_error_mm")
@@ -336,7 +339,7 @@ class _Frames:
 
     def __init__(self, schema, store, u, index: int, fps: int):
         self.schema, self.store, self.u, self.fps = schema, store, u, fps
-        self.start = DEVICE_BASE_S + 100.0 * index
+        self.start = DEVICE_BASE_S + DEVICE_STRIDE_S * index
         self.n = 0
 
     def add(self, obs, action, intended, glove: dict) -> None:

@@ -14,7 +14,7 @@ import sys
 from policies import cli as policies_cli
 from recorder import GloverecError, __version__, config
 from recorder.argtypes import positive_float
-from recorder.calibrate import cli as calibrate_cli
+from recorder.calibrate import board as board_cli, cli as calibrate_cli
 from recorder.glove.config import GloveConfig, LinkConfig
 from recorder.hub import cli as hub_cli
 from recorder.record import cli as record_cli, inspect as inspect_cli
@@ -92,6 +92,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.set_defaults(func=cmd_bridge)
 
     calibrate_cli.add_parser(sub)
+    board_cli.add_parser(sub)
     view_cli.add_parser(sub)
     record_cli.add_parsers(sub, load_policy=_load_policy, check_policy=_check_policy)
     record_cli.add_rerecord_parser(sub)

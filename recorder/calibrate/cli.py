@@ -12,6 +12,7 @@ import json
 
 from recorder import GloverecError
 from recorder.argtypes import positive_float, positive_int
+from recorder.calibrate.board import BOARD_FLAGS, add_board_arguments, board_from
 from recorder.paths import CALIBRATION_ENV
 from recorder.view.process import view_arg
 
@@ -74,6 +75,7 @@ def add_parser(sub) -> None:
         "index, a video file or a stream URL; saved as camera_<name>.json in --dir (docs/wrist.md)",
     )
     c.add_argument("--views", type=positive_int, default=30, help="board views to take from --camera (default 30)")
+    add_board_arguments(c, marker=False)  # the board's markers: --marker-mm below
     c.add_argument(
         "--wrist",
         metavar="SOURCE",
@@ -90,7 +92,8 @@ def add_parser(sub) -> None:
         metavar="FILE.json",
         help="the marker camera's calibration, for --wrist marker:CAMERA (default: the one --camera CAMERA saved)",
     )
-    c.add_argument("--marker-mm", type=positive_float, default=40.0, help="the marker's side, mm (default 40)")
+    c.add_argument("--marker-mm", type=positive_float, metavar="MM", help="the marker's side, mm: the tracked marker's "
+                   "for --wrist (default 40), the board's markers' for --camera (default 22)")  # fmt: skip
     c.add_argument("--json", action="store_true", help="print a JSON summary instead of the table")
     c.set_defaults(func=cmd_calibrate)
 
@@ -110,6 +113,10 @@ def cmd_calibrate(args) -> int:
         return _calibrate_mount(args)
     if args.camera is not None:
         return _calibrate_camera(args)
+    given = [f"--{k.replace('_', '-')}" for k in BOARD_FLAGS if getattr(args, k) is not None]
+    if given:
+        verb = "describes" if len(given) == 1 else "describe"
+        raise GloverecError(f"{' and '.join(given)} {verb} the board of --camera CAMERA: add --camera")
     from recorder.hand.profile import (  # the procedure's modules: not at start-up
         measured_profile,
         save_profile,
@@ -165,11 +172,14 @@ def _calibrate_camera(args) -> int:
 
     if args.glove is not None or args.wearer is not None:
         raise GloverecError("--camera calibrates a camera alone: drop --glove and --wearer")
-    model, rms, used = calibrate(frames_of(args.camera, args.views))
+    board = board_from(args)  # a bad flag or file: one line before the camera opens
+    model, rms, used = calibrate(frames_of(args.camera, args.views), board)
     path = camera_file(calibration_dir(args.dir), args.camera)
     path.parent.mkdir(parents=True, exist_ok=True)
     model.save(path)
-    out = {"camera": args.camera, "path": str(path), "views": used, "rms_px": round(rms, 3), **model.__dict__}
+    layout = "{}x{}".format(*board.squares)
+    out = {"camera": args.camera, "path": str(path), "views": used, "rms_px": round(rms, 3), "board": layout,
+           **model.__dict__}  # fmt: skip
     text = (
         f"camera {args.camera}: {model.width}x{model.height}, fx {model.fx:.1f} fy {model.fy:.1f} px, centre "
         f"({model.cx:.1f}, {model.cy:.1f}), reprojection {rms:.2f} px over {used} views; saved to {path}"
@@ -185,7 +195,8 @@ def _calibrate_mount(args) -> int:
         raise GloverecError("--wrist pairs the tracker's marker with the glove's palm: add --glove GLOVE")
     if args.camera is not None or args.wearer is not None or args.pinch:
         raise GloverecError("--wrist finds the marker's mounting alone: drop --camera, --wearer and --pinch")
-    result = calibrate_mount(args.glove, args.wrist, args.duration, args.wrist_camera, args.marker_mm, args.dir,
+    marker_mm = 40.0 if args.marker_mm is None else args.marker_mm
+    result = calibrate_mount(args.glove, args.wrist, args.duration, args.wrist_camera, marker_mm, args.dir,
                              args.realtime)  # fmt: skip
     print(json.dumps(result) if args.json else report(result))
     return 0

@@ -1,52 +1,37 @@
 """A camera's intrinsics from views of a ChArUco board: OpenCV's ChArUco detector and ``calibrateCamera``. The
-board is printed from ``BoardSpec.image()``; its views come from the camera itself (a device index, a video file
-or a stream URL); the result is a CameraModel saved per camera beside the glove calibrations."""
+board (recorder/wrist/board.py: its layout, sizes and dictionary) is printed by `gloverec board`; its views come
+from the camera itself (a device index, a video file or a stream URL); the result is a CameraModel saved per
+camera beside the glove calibrations."""
 
 from __future__ import annotations
 
 import re
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
 import numpy as np
 
 from recorder import GloverecError
-from recorder.wrist.marker import DICTIONARIES, CameraModel
+from recorder.wrist.board import BoardSpec
+from recorder.wrist.board_hint import what_the_views_show
+from recorder.wrist.marker import CameraModel
+
+__all__ = ["BoardSpec", "calibrate", "camera_file", "frames_of"]
 
 MIN_VIEWS = 5  # views that show enough of the board
 MIN_CORNERS = 8  # chessboard corners a view must show to count
 
 
-@dataclass(frozen=True)
-class BoardSpec:
-    """The printed ChArUco board: squares across and down, the squares' and markers' sides (m), the dictionary."""
-
-    squares: tuple[int, int] = (7, 5)
-    square_m: float = 0.03
-    marker_m: float = 0.022
-    dictionary: str = "4X4_50"
-
-    def board(self):
-        aruco = cv2.aruco.getPredefinedDictionary(DICTIONARIES[self.dictionary])
-        return cv2.aruco.CharucoBoard(self.squares, self.square_m, self.marker_m, aruco)
-
-    def image(self, px_per_square: int = 80) -> np.ndarray:
-        return self.board().generateImage((self.squares[0] * px_per_square, self.squares[1] * px_per_square))
-
-    def size_m(self) -> tuple[float, float]:
-        return self.squares[0] * self.square_m, self.squares[1] * self.square_m
-
-
 def calibrate(frames, board: BoardSpec = BoardSpec()) -> tuple[CameraModel, float, int]:
     """(the camera's model, the reprojection RMS in px, the views used) from ``frames`` (RGB or grey images of
-    one size); GloverecError in one line when too few of them show the board."""
+    one size); GloverecError in one line when too few of them show the board, saying what they show instead (the
+    markers of another layout or dictionary: recorder/wrist/board_hint.py)."""
     b = board.board()
     detector = cv2.aruco.CharucoDetector(b)
+    greys = [frame if frame.ndim == 2 else cv2.cvtColor(frame, cv2.COLOR_RGB2GRAY) for frame in frames]
     objects, images, size = [], [], None
-    for frame in frames:
-        grey = frame if frame.ndim == 2 else cv2.cvtColor(frame, cv2.COLOR_RGB2GRAY)
+    for grey in greys:
         size = grey.shape[::-1]
         corners, ids, _, _ = detector.detectBoard(grey)
         if ids is None or len(ids) < MIN_CORNERS:
@@ -55,8 +40,11 @@ def calibrate(frames, board: BoardSpec = BoardSpec()) -> tuple[CameraModel, floa
         objects.append(obj)
         images.append(img)
     if len(objects) < MIN_VIEWS:
-        raise GloverecError(f"only {len(objects)} views showed the board ({MIN_VIEWS} needed): move it through the "
-                            "camera's view, near and far, tilted")  # fmt: skip
+        hint = what_the_views_show(greys, board) or (
+            f"move it through the camera's view, near and far, tilted (a {board.layout()} board of {board.dictionary} "
+            "markers; another: --board, --dictionary)"
+        )
+        raise GloverecError(f"only {len(objects)} views showed the board ({MIN_VIEWS} needed): {hint}")
     rms, k, dist, _, _ = cv2.calibrateCamera(objects, images, size, None, None)
     model = CameraModel(size[0], size[1], float(k[0, 0]), float(k[1, 1]), float(k[0, 2]), float(k[1, 2]),
                         tuple(float(v) for v in dist.ravel()[:5]))  # fmt: skip

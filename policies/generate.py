@@ -28,8 +28,9 @@ What a generated episode holds where the recorder stores a glove: ``observation.
 ``quality.fusion`` and ``quality.retarget_error_mm`` are the source frame's (the person's hand as the glove
 measured it, at the frame the action came from); ``quality.latency_ms`` is -1 (not measured) and
 ``quality.glove_age_ms`` 0. There was no glove clock: ``time.device_s`` is a generation clock, ``DEVICE_BASE_S``
-plus ``DEVICE_STRIDE_S`` per episode index plus the frame's time, so that each episode's first frame time, which the sidecar
-matches episodes by, is unique and far from any glove's (a glove's clock starts at 0 when it powers up).
+plus ``DEVICE_STRIDE_S`` per episode index plus the frame's time, so that each episode's first frame time, which
+the sidecar matches episodes by, is unique and far from any glove's (a glove's clock starts at 0 when it powers
+up).
 ``time.host_s`` is the host's monotonic clock as the frame was generated. A free wrist's ``observation.wrist``
 is the action's palm pose, always tracked.
 """

@@ -14,7 +14,7 @@ import sys
 from policies import cli as policies_cli
 from recorder import GloverecError, __version__, config
 from recorder.argtypes import positive_float
-from recorder.calibrate import board as board_cli, cli as calibrate_cli
+from recorder.calibrate import board as board_cli, cli as calibrate_cli, doctor_cli
 from recorder.glove.config import GloveConfig, LinkConfig
 from recorder.hub import cli as hub_cli
 from recorder.record import cli as record_cli, inspect as inspect_cli
@@ -58,6 +58,15 @@ def build_parser() -> argparse.ArgumentParser:
         help="on exit, save the ground truth of every frame sent "
         "(seq, t_us, joint angles, parent-relative quaternions, fingertips, palm pose)",
     )
+    e.add_argument(
+        "--fault",
+        action="append",
+        default=[],
+        metavar="FAULT",
+        help="a build error in its raw frames, repeatable: swap:A,B (two IMUs' cables swapped), rotate:I:90|180|270 "
+        "(IMU I glued turned about its normal), dead:I, stuck:I, flaky:I (drops out), rate:HZ (frames slower than "
+        "announced) (docs/recording.md, 'Bringing up a new glove')",
+    )
     e.set_defaults(func=cmd_emulate)
 
     m = sub.add_parser("monitor", help="live rate, errors and latency of a glove")
@@ -92,6 +101,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.set_defaults(func=cmd_bridge)
 
     calibrate_cli.add_parser(sub)
+    doctor_cli.add_parser(sub)
     board_cli.add_parser(sub)
     view_cli.add_parser(sub)
     record_cli.add_parsers(sub, load_policy=_load_policy, check_policy=_check_policy)
@@ -134,15 +144,20 @@ def _interrupt(*_):
 
 def cmd_emulate(args) -> int:
     from recorder.emulator.emulator import Emulator  # numpy and the synthetic IMUs: not at start-up
+    from recorder.emulator.checkup import CheckupMotion
+    from recorder.emulator.faults import parse_fault
     from recorder.emulator.procedure import OnRequest
 
+    faults = [parse_fault(f) for f in args.fault]  # a bad spelling: one line before the port exists
     glove = config.load(GloveConfig, overrides=config.overrides(args, GloveConfig))
     motion = glove.motion or "gestures"
     if motion == "demonstrations":
         raise GloverecError("--motion demonstrations is `gloverec record`'s emulated wearer (it performs the task "
-                            "being recorded): pass gestures, random, calibration or calibration_pinch")  # fmt: skip
+                            "being recorded): pass gestures, random, calibration, calibration_pinch or doctor")  # fmt: skip
     if motion.startswith("calibration"):  # performs the steps when `gloverec calibrate` switches it to raw
         motion = OnRequest("gestures", glove.seed, glove.rate_hz, pinch=motion == "calibration_pinch")
+    elif motion == "doctor":  # performs the doctor's moves when `gloverec doctor` switches it to raw
+        motion = OnRequest(procedure=CheckupMotion(glove.seed, glove.rate_hz), rate_hz=glove.rate_hz)
     emu = Emulator(
         glove.rate_hz,
         glove.mode,
@@ -151,6 +166,7 @@ def cmd_emulate(args) -> int:
         link=args.link,
         keep_truth=bool(args.truth),
         firmware=args.firmware,
+        faults=faults,
     )
     try:
         port = emu.plug()

@@ -143,6 +143,8 @@ class Calibrator:
         self.view_spec = view
         self.view = None
         self._pending: list = []  # frames read ahead and not used yet
+        self.channels = None  # the glove's channel map (`gloverec doctor --fix`), applied to its raw frames
+        self.announced_hz: float | None = None  # the output rate its status frames state
         self.mode_before: Mode | None = None  # the glove's output mode before calibrating: restored at the end
 
     # ------------------------------------------------------------ the run
@@ -171,6 +173,8 @@ class Calibrator:
                                 f"still for the whole step ({attempts} attempt(s))"
                             ) from None
                         self._say(f"refused: {exc.reason}. Again:")
+                if step.name == "flex":
+                    self._check_build(recs["still"], recs["flex"])
         finally:
             self.close()
         calibration = self._compute(recs, attempts)
@@ -180,6 +184,28 @@ class Calibrator:
         except OSError as exc:
             raise GloverecError(f"cannot save the calibration in {self.folder}: {exc.strerror or exc}") from None
         return Result(calibration, path, proportions)
+
+    def _check_build(self, still: list, flex: list) -> None:
+        """The doctor's checks on the first two steps (recorder/glove/checks.py): a glove built wrong is refused in
+        one line, before anything is fitted, pointing at `gloverec doctor`. A sensor mounted turned is refused too:
+        the flexion axis is fitted only up to its sign (forced towards +y), so a turned sensor would be calibrated
+        with its finger bending backwards; the doctor's channel map turns it back."""
+        from recorder.glove.checks import calibration_problems
+
+        problems = calibration_problems(_inside(still), _inside(flex), self.announced_hz)
+        if problems:
+            more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+            raise GloverecError(
+                f"calibration refused: {problems[0].found}{more}; run `gloverec doctor --glove {self.spec}`"
+            )
+
+    def _mapped(self, f: RawFrame) -> RawFrame:
+        """A raw frame in slot order, by the glove's channel map (loaded once its id is known)."""
+        if self.channels is None and self.glove_id is not None:
+            from recorder.fusion.session import read_channel_map
+
+            self.channels = read_channel_map(self.folder, self.glove_id) or False
+        return self.channels.apply(f) if self.channels else f
 
     def _proportions(self, calibration: cal.GloveCalibration, frames: list) -> np.ndarray:
         """The finger length factors from the pinch step: fused with the new calibration from its flat first
@@ -200,7 +226,7 @@ class Calibrator:
 
     def _compute(self, recs: dict, attempts: int) -> cal.GloveCalibration:
         still, flex, tilt, rest = (_inside(recs[s.name]) for s in STEPS)  # the glove's steps (not the pinch)
-        fusion = HostFusion(self.config)
+        fusion = HostFusion(self.config)  # the frames are in slot order already (the channel map applied)
         try:
             calibration = fusion.calibrate(still, flex, tilt, glove_id=self.glove_id)
         except cal.CalibrationRefused as exc:  # checked already; kept for a glove whose frames changed meanwhile
@@ -320,7 +346,10 @@ class Calibrator:
     def _next(self, timeout: float):
         if self._pending:
             return self._pending.pop(0)
-        return self.source.read(timeout)
+        f = self.source.read(timeout)
+        if isinstance(f, StatusFrame) and f.output_rate_hz:
+            self.announced_hz = float(f.output_rate_hz)
+        return f
 
     # ------------------------------------------------------------ one step
     def _step(self, k: int, step: Step) -> list:
@@ -347,7 +376,7 @@ class Calibrator:
                 if span >= step.seconds:
                     self._pending.insert(0, f)  # the first frame of the next step
                     break
-                frames.append(f)
+                frames.append(self._mapped(f))
                 progress.update(span)
                 self._show(k, step, span)
         finally:

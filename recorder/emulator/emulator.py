@@ -18,6 +18,7 @@ import tty
 import numpy as np
 
 from recorder import GloverecError
+from recorder.emulator.faults import FaultyGlove
 from recorder.emulator.firmware import FirmwareCore, FirmwareError, RestThenMove, build_core
 from recorder.emulator.glove import SyntheticGlove
 from recorder.hand.kinematics import joint_angles_from_relative
@@ -58,17 +59,22 @@ class Emulator:
         keep_truth: bool = False,
         firmware: bool = False,
         glove_id: int = GLOVE_ID,
+        faults=(),
     ):
         """``motion``: a Motion kind or a Motion-like object. ``firmware``: run the compiled glove core
         (firmware/lib/glove_core) on the synthetic IMU readings instead of encoding frames here: the bytes on
         the pty are then exactly what the real glove's code sends (firmware in the loop). ``glove_id``: what
         the status frames say; it also seeds the IMUs' own errors (turn-on gyro bias, accelerometer offsets),
         so one emulated glove keeps its errors across sessions and seeds, as hardware does, and a calibration
-        saved for it (`gloverec calibrate --glove emulator`) holds for every recording with it."""
+        saved for it (`gloverec calibrate --glove emulator`) holds for every recording with it. ``faults``: build
+        errors in its raw frames (recorder/emulator/faults.py: "swap:3,4", "rotate:5:180", ... or Faults)."""
         self.sense_hz = float(rate_hz)  # synthesis ("sensing") rate, fixed
         self.output_hz = float(rate_hz)  # frame rate; SET_RATE lowers it (at most the sensing rate)
         self.mode = Mode[mode.upper()]
         self.core = None
+        self.faults = FaultyGlove(faults, seed)
+        if firmware and self.faults:
+            raise GloverecError("--fault acts on the emulator's own frames: drop --firmware")
         if firmware:
             motion = self._start_core(motion, seed, mode)
         self.glove_id = int(glove_id)
@@ -203,7 +209,7 @@ class Emulator:
             if self.core is not None:
                 self._firmware_cycle(block, i)
             elif self.plugged and t >= next_out - 1e-9:
-                next_out += 1.0 / self.output_hz
+                next_out += 1.0 / self._send_hz()
                 self._poll_commands()
                 data = self._due_buttons(float(block.t[i])) + self._encode(block, i)
                 if t >= next_status:
@@ -218,6 +224,38 @@ class Emulator:
                         batch.clear()
             i += 1
             k += 1
+
+    def _send_hz(self) -> float:
+        """Frames per second actually sent: the output rate, or a slower one a ``rate`` fault imposes (the status
+        frames still announce ``output_hz``)."""
+        return min(self.output_hz, self.faults.rate_hz or self.output_hz)
+
+    def stream(self, duration: float, status_s: float = 1.0):
+        """The bytes the glove would send over ``duration`` s of its own clock, block by block, with no pty and
+        no pacing (tests and benchmarks decode them as a host would): frames, a status frame every ``status_s``."""
+        self.realtime = False
+        period = 1.0 / self.sense_hz
+        self.t0_us = t0_us = 0
+        next_out = 0.0
+        next_status = 0.0
+        k = 0
+        while k * period < duration:
+            block = self.glove.next_block(max(1, int(self.fast_block_s * self.sense_hz)))
+            self.horizon_s = float(block.t[-1]) + period
+            out = []
+            for i in range(len(block.t)):
+                t = k * period
+                k += 1
+                if t >= duration:
+                    break
+                self._t_us = t0_us + round(t * 1e6)
+                if t >= next_status:
+                    out.append(self._status())
+                    next_status = t + status_s
+                if t >= next_out - 1e-9:
+                    next_out += 1.0 / self._send_hz()
+                    out.append(self._encode(block, i))
+            yield b"".join(out)
 
     def allow(self, t_s: float) -> None:
         """Faster than real time: let the synthesis run up to session time ``t_s`` (see ``lead_s``)."""
@@ -279,14 +317,11 @@ class Emulator:
             data = encode_frame(PoseCompactFrame(self._next_seq(), t_us, block.pose[i][0], angles))
             seq = self.seq
         else:
-            data, seq = (
-                encode_frame(
-                    RawFrame(
-                        self._next_seq(), t_us, block.raw[i], block.accel_fs_g, block.gyro_fs_dps, (1 << N_IMUS) - 1
-                    )
-                ),
-                self.seq,
-            )
+            raw, ok_mask = block.raw[i], (1 << N_IMUS) - 1
+            if self.faults:
+                raw, ok_mask = self.faults.apply(float(block.t[i]), raw, ok_mask)
+            data = encode_frame(RawFrame(self._next_seq(), t_us, raw, block.accel_fs_g, block.gyro_fs_dps, ok_mask))
+            seq = self.seq
         if self.truth_rows is not None:
             self.truth_rows.append(
                 (

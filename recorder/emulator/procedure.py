@@ -132,9 +132,13 @@ class OnRequest(SampledMotion):
     SETTLE_S = 0.05  # with the 50 ms the emulator synthesises ahead, well inside the 0.2 s a step leaves out at
     # each end (recorder/calibrate/procedure.py MARGIN_S)
 
-    def __init__(self, kind: str = "gestures", seed: int = 0, rate_hz: float = 200.0, pinch: bool = False):
+    def __init__(
+        self, kind: str = "gestures", seed: int = 0, rate_hz: float = 200.0, pinch: bool = False, procedure=None
+    ):
+        """``procedure``: what to perform instead of the calibration (a SampledMotion at ``rate_hz`` that starts
+        flat and still: the doctor's moves, recorder/emulator/checkup.py)."""
         super().__init__(rate_hz)
-        self.procedure = ProcedureMotion(kind, seed, rate_hz, pinch=pinch)
+        self.procedure = procedure if procedure is not None else ProcedureMotion(kind, seed, rate_hz, pinch=pinch)
         self.start_s: float | None = None  # session time at which the procedure's t = 0 is (None: resting)
         self._from: MotionBlock | None = None  # the pose it settles from (None: from rest)
 

@@ -5,6 +5,7 @@ the emulator streaming when it opens and stops it, and removes its port, when it
 from __future__ import annotations
 
 from recorder import GloverecError
+from recorder.emulator.checkup import CheckupMotion
 from recorder.emulator.emulator import Emulator
 from recorder.emulator.procedure import ProcedureMotion
 from recorder.link.serial_source import SerialSource
@@ -51,9 +52,11 @@ def emulated(config, realtime: bool = True, wearer=None, rest_angles=None, **opt
         motion = wearer
     elif kind in CALIBRATION:
         motion = ProcedureMotion("gestures", config.seed, config.rate_hz, pinch=kind == "calibration_pinch")
+    elif kind == "doctor":
+        motion = CheckupMotion(config.seed, config.rate_hz)
     else:
         motion = kind
     link = EmulatedLink(Emulator(config.rate_hz, config.mode, motion, seed=config.seed), realtime, **options)
     known = {"glove_id": link.emulator.glove_id, "raw": config.mode == "raw", "rest_angles": rest_angles}
-    link.expects = {} if kind in CALIBRATION else known
+    link.expects = {} if kind in (*CALIBRATION, "doctor") else known
     return link

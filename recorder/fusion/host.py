@@ -148,6 +148,7 @@ class HostFusion:
         self.last_quats = joints.constrained_relative(np.zeros(N_JOINTS))  # pose frames: the last good one
         self.rest_angles = None  # the pose (20,) rad the hand holds at start and reset; None: the calibration's
         self.start_rested = None  # whether the hand rested over what ``start`` was given (None: not started)
+        self.channels = None  # the glove's ChannelMap (recorder/fusion/channels.py): applied to raw readings first
 
     @property
     def reference_angles(self) -> np.ndarray:
@@ -194,6 +195,8 @@ class HostFusion:
         """Start (or restart) fusing with the hand resting in the reference pose over ``still`` (frames or a
         (gyro, accel, dt) tuple): gyro bias refreshed if the hand was still, every filter initialised from
         gravity (eq. 3.5-3.6), bias tracking cleared, and the reference pose taken (eq. 3.21)."""
+        if self.channels is not None and isinstance(still, list):
+            still = [self.channels.apply(f) if isinstance(f, RawFrame) else f for f in still]
         g, a, _, _ = _arrays(still)
         try:
             self.calibration.gyro_bias = cal.gyro_bias(g, a)
@@ -251,6 +254,9 @@ class HostFusion:
         """T raw frames at once (raw (T, 12, 7) registers, t_us (T,) device µs, ok_mask (T,) bit masks)."""
         raw = np.asarray(raw)
         T = len(raw)
+        if self.channels is not None and not self.channels.identity:
+            full = np.full(T, (1 << N_IMUS) - 1, np.int64) if ok_mask is None else np.asarray(ok_mask, np.int64)
+            raw, ok_mask = self.channels.apply_raw(raw, full)
         t_us = np.asarray(t_us, np.int64)
         flags = self.check(raw, ok_mask)
         fuse = flags == 0

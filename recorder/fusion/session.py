@@ -17,6 +17,7 @@ import numpy as np
 
 from recorder import GloverecError
 from recorder.config import ConfigError, build
+from recorder.fusion.channels import ChannelMap, load_channel_map
 from recorder.fusion.config import FusionConfig
 from recorder.fusion.host import HostFusion, compile_kernels
 from recorder.hand.calibration import GloveCalibration
@@ -84,7 +85,17 @@ def load_fusion(glove_id: int, folder=None, config_path=None) -> HostFusion:
     fusion = HostFusion(config, calibration)
     fusion.calibrated = calibrated
     fusion.calibration_path = path
+    fusion.channels = read_channel_map(calibration_dir(folder), int(glove_id))
     return fusion
+
+
+def read_channel_map(folder, glove_id: int) -> ChannelMap | None:
+    """The glove's channel map (`gloverec doctor --fix`) beside its calibration; a damaged file: one line."""
+    try:
+        return load_channel_map(folder, glove_id)
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        where = ChannelMap(glove_id=int(glove_id)).path(folder)
+        raise GloverecError(f"bad channel map {where}: {str(exc).splitlines()[0] or type(exc).__name__}") from None
 
 
 def fusion_record(fusion: HostFusion | None, glove_id: int | None = None) -> dict:
@@ -110,6 +121,7 @@ def fusion_record(fusion: HostFusion | None, glove_id: int | None = None) -> dic
         "fusion_config": dataclasses.asdict(fusion.config),
         "host_fusion": True,
         "rest_angles": rest,
+        "channel_map": None if fusion.channels is None else json.loads(fusion.channels.to_json()),
     }
 
 
@@ -131,6 +143,11 @@ def fusion_from_record(record: dict, source: str = "the record") -> HostFusion |
     except (ValueError, KeyError, TypeError, AttributeError) as exc:
         raise GloverecError(f"bad calibration in {source}: {str(exc).splitlines()[0] or type(exc).__name__}") from None
     fusion = HostFusion(config, calibration)
+    if record.get("channel_map"):
+        try:
+            fusion.channels = ChannelMap.from_json(json.dumps(record["channel_map"]))
+        except (ValueError, KeyError, TypeError) as exc:
+            raise GloverecError(f"bad channel map in {source}: {exc}") from None
     fusion.calibrated = bool(record.get("calibrated"))
     if record.get("rest_angles") is not None:
         fusion.rest_angles = np.asarray(record["rest_angles"], float)

@@ -25,7 +25,7 @@ from recorder.config import STRICT, ConfigError, Positive, setting
 
 EMULATOR = "emulator"  # the default kind: the built-in emulator, in this process (recorder/emulator/source.py)
 EMULATOR_MODES = ("pose", "raw", "compact", "json")
-EMULATOR_MOTIONS = ("gestures", "random", "demonstrations", "calibration", "calibration_pinch")
+EMULATOR_MOTIONS = ("gestures", "random", "demonstrations", "calibration", "calibration_pinch", "doctor")
 PROTOCOLS = ("auto", "binary", "json")
 
 
@@ -144,11 +144,12 @@ class GloveConfig:
         flag="--output",
         aliases=("--mode",),
     )
-    motion: Literal["gestures", "random", "demonstrations", "calibration", "calibration_pinch"] | None = setting(
+    motion: Literal["gestures", "random", "demonstrations", "calibration", "calibration_pinch", "doctor"] | None = setting(
         None,
         "the emulated wearer: moves between gestures, moves at random, performs the task's scripted demonstrations "
         "(record), or (calibration) rests until `gloverec calibrate` asks for raw frames, then performs its steps "
-        "(with the pinch step: calibration_pinch), then gestures (default: gestures; record: demonstrations)",
+        "(with the pinch step: calibration_pinch), then gestures, or (doctor) rests until `gloverec doctor` asks for raw "
+        "frames, then performs its moves (default: gestures; record: demonstrations)",
     )
     seed: int = setting(0, "seeds the emulated motion", metavar="N")
 

@@ -143,8 +143,8 @@ def _interrupt(*_):
 
 
 def cmd_emulate(args) -> int:
-    from recorder.emulator.emulator import Emulator  # numpy and the synthetic IMUs: not at start-up
     from recorder.emulator.checkup import CheckupMotion
+    from recorder.emulator.emulator import Emulator  # numpy and the synthetic IMUs: not at start-up
     from recorder.emulator.faults import parse_fault
     from recorder.emulator.procedure import OnRequest
 
@@ -153,7 +153,8 @@ def cmd_emulate(args) -> int:
     motion = glove.motion or "gestures"
     if motion == "demonstrations":
         raise GloverecError("--motion demonstrations is `gloverec record`'s emulated wearer (it performs the task "
-                            "being recorded): pass gestures, random, calibration, calibration_pinch or doctor")  # fmt: skip
+                            "being recorded): pass gestures, random, calibration, calibration_pinch or "
+                            "doctor")  # fmt: skip
     if motion.startswith("calibration"):  # performs the steps when `gloverec calibrate` switches it to raw
         motion = OnRequest("gestures", glove.seed, glove.rate_hz, pinch=motion == "calibration_pinch")
     elif motion == "doctor":  # performs the doctor's moves when `gloverec doctor` switches it to raw

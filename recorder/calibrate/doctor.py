@@ -1,5 +1,5 @@
 """`gloverec doctor`: a new glove's check-up (docs/recording.md, "Bringing up a new glove"). The wearer rests the
-hand flat, then curls each finger in turn, thumb to little (recorder/hand/checkup.py, 12 s of moves); from the raw
+hand flat, then curls each finger in turn, thumb to little (recorder/hand/checkup.py, 9.5 s of moves); from the raw
 frames recorder/glove/checks.py finds what was built wrong, and ``fix`` saves the channel map that undoes swapped
 cables and sensors glued turned (recorder/fusion/channels.py), beside the calibration. The steps are recorded as
 `gloverec calibrate` records its own (recorder/calibrate/procedure.py): on the glove's clock, each started by Enter
@@ -15,7 +15,6 @@ from pathlib import Path
 from recorder import GloverecError
 from recorder.calibrate.procedure import STDERR, Calibrator, Step
 from recorder.fusion.channels import ChannelMap
-from recorder.fusion.session import read_channel_map
 from recorder.glove.checks import Checkup, examine
 from recorder.glove.config import GloveConfig
 from recorder.hand import checkup
@@ -25,11 +24,17 @@ from recorder.hand.skeleton import FINGERS
 FINGER_NAMES = {"thumb": "thumb", "index": "index finger", "middle": "middle finger", "ring": "ring finger",
                 "pinky": "little finger"}  # fmt: skip
 STEPS = (
-    Step("still", checkup.STILL_S, "Rest the hand flat on the table, palm down, fingers straight and together. "
-         "Do not move."),  # fmt: skip
+    Step(
+        "still",
+        checkup.STILL_S,
+        "Rest the hand flat on the table, palm down, fingers straight and together. Do not move.",
+    ),  # fmt: skip
     *(
-        Step(f, checkup.FLEX_S, f"Curl the {FINGER_NAMES[f]} fully, all its joints, and straighten it again "
-             "(the other fingers flat).")  # fmt: skip
+        Step(
+            f,
+            checkup.FLEX_S,
+            f"Curl the {FINGER_NAMES[f]} fully, all its joints, and straighten it again (the other fingers flat).",
+        )  # fmt: skip
         for f in FINGERS
     ),
 )

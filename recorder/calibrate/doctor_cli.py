@@ -25,5 +25,7 @@ def cmd_doctor(args) -> int:
 
     verdict = Doctor(args.glove, folder=args.dir, interactive=False if args.yes else None,
                      realtime=args.realtime).run(fix=args.fix)  # fmt: skip
-    print(json.dumps(summary(verdict)) if args.json else report(verdict, f"`gloverec doctor --glove {args.glove} --fix`"))
+    print(
+        json.dumps(summary(verdict)) if args.json else report(verdict, f"`gloverec doctor --glove {args.glove} --fix`")
+    )
     return 0 if verdict.checkup.ok or verdict.saved is not None else 1

@@ -192,7 +192,7 @@ class Calibrator:
         with its finger bending backwards; the doctor's channel map turns it back."""
         from recorder.glove.checks import calibration_problems
 
-        problems = calibration_problems(_inside(still), _inside(flex), self.announced_hz)
+        problems = calibration_problems(still, flex, self.announced_hz)  # each move trimmed at its ends there
         if problems:
             more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
             raise GloverecError(

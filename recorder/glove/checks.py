@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from recorder.fusion.channels import ChannelMap
-from recorder.fusion.quality import InputCheck, STUCK
+from recorder.fusion.quality import STUCK, InputCheck
 from recorder.hand import checkup
 from recorder.hand.skeleton import FINGER_SEGMENTS, FINGERS, JOINT_MAP, MUX_MAP, N_IMUS, SEGMENTS
 from recorder.protocol.frames import RawFrame
@@ -225,7 +225,8 @@ def examine(frames: list | dict, announced_hz: float | None = None, s: CheckSett
     moved = table >= np.maximum(s.moved_dps, s.moved_share * table.max(axis=0))
     seen = [f if moved[i].any() else "palm" for i, f in enumerate(np.array(FINGERS)[np.argmax(table, axis=1)])]
     slot_of, misplaced = _placement(seen, table, bad)
-    axes_final = [None if i in bad or seen[i] == "palm" else axis_in[seen[i]][i] for i in range(N_IMUS)]
+    gappy = {i for p in out.problems if p.kind == "intermittent" for i in p.imus}  # a turn half seen: no sign
+    axes_final = [None if i in bad | gappy or seen[i] == "palm" else axis_in[seen[i]][i] for i in range(N_IMUS)]
     out.axes = [None if a is None else np.round(a, 3).tolist() for a in axes_final]
     if misplaced:
         out.problems += misplaced
@@ -245,7 +246,9 @@ def examine(frames: list | dict, announced_hz: float | None = None, s: CheckSett
         order = [0] * N_IMUS
         for i in range(N_IMUS):
             order[slot_of.get(i, i)] = i
-        out.channel_map = ChannelMap(order=tuple(order), turns=tuple(turns), note="; ".join(p.found for p in out.problems))
+        out.channel_map = ChannelMap(
+            order=tuple(order), turns=tuple(turns), note="; ".join(p.found for p in out.problems)
+        )
     return out
 
 
@@ -267,7 +270,8 @@ def _placement(seen: list, table: np.ndarray, bad: set) -> tuple[dict, list]:
         if seen[i] == "palm":
             problems.append(Problem("not_moving", (i,), f"{imu_name(i)} did not turn when the {finger_of(i)} flexed, "
                                     "nor with any other finger", "check that it is glued to its segment and wired "
-                                    f"to channel {MUX_MAP[i]}; or the finger did not move: run the doctor again"))  # fmt: skip
+                                    f"to channel {MUX_MAP[i]}; or the finger did not move: run the doctor "
+                                    "again"))  # fmt: skip
         elif seen[i] != finger_of(i):
             problems.append(Problem("misplaced", (i,), f"{imu_name(i)} turned when the {seen[i]} flexed, not the "
                                     f"{finger_of(i)}", f"its cable is on the {seen[i]}'s place: check which IMU is "
@@ -286,7 +290,8 @@ def _swaps(slot_of: dict, seen: list) -> list[Problem]:
             cycle.append(slot_of[cycle[-1]])
         done.update(cycle)
         parts = [f"{imu_name(k)} turned as the {SEGMENTS[JOINT_MAP[slot_of[k]]]} (with the {seen[k]})"
-                 if seen[k] != "palm" else f"{imu_name(k)} turned with no finger, as the palm's" for k in cycle]  # fmt: skip
+                 if seen[k] != "palm" else f"{imu_name(k)} turned with no finger, as the palm's"
+                 for k in cycle]  # fmt: skip
         what = " and ".join(str(k) for k in cycle)
         verb = "swapped" if len(cycle) == 2 else "on each other's places"
         out.append(Problem("swapped", tuple(cycle), f"IMUs {what} are {verb}: " + "; ".join(parts),

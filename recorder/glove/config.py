@@ -144,12 +144,14 @@ class GloveConfig:
         flag="--output",
         aliases=("--mode",),
     )
-    motion: Literal["gestures", "random", "demonstrations", "calibration", "calibration_pinch", "doctor"] | None = setting(
-        None,
-        "the emulated wearer: moves between gestures, moves at random, performs the task's scripted demonstrations "
-        "(record), or (calibration) rests until `gloverec calibrate` asks for raw frames, then performs its steps "
-        "(with the pinch step: calibration_pinch), then gestures, or (doctor) rests until `gloverec doctor` asks for raw "
-        "frames, then performs its moves (default: gestures; record: demonstrations)",
+    motion: Literal["gestures", "random", "demonstrations", "calibration", "calibration_pinch", "doctor"] | None = (
+        setting(
+            None,
+            "the emulated wearer: moves between gestures, moves at random, performs the task's scripted demonstrations "
+            "(record), or (calibration) rests until `gloverec calibrate` asks for raw frames, then performs its steps "
+            "(with the pinch step: calibration_pinch), then gestures, or (doctor) rests until `gloverec doctor` asks "
+            "for raw frames, then performs its moves (default: gestures; record: demonstrations)",
+        )
     )
     seed: int = setting(0, "seeds the emulated motion", metavar="N")
 

@@ -12,8 +12,8 @@ from __future__ import annotations
 from recorder.hand.skeleton import FINGERS
 
 STILL_S = 2.0
-FLEX_S = 2.0  # each finger: rest 0.2 s, curl and straighten in FLEX_MOVE_S, rest
-FLEX_MOVE_S = 1.6
+FLEX_S = 1.5  # each finger: rest 0.15 s, curl and straighten in FLEX_MOVE_S, rest
+FLEX_MOVE_S = 1.2
 STEPS = {"still": STILL_S, **{f: FLEX_S for f in FINGERS}}
 START_S = {name: sum(list(STEPS.values())[:k]) for k, name in enumerate(STEPS)}
 TOTAL_S = sum(STEPS.values())

@@ -164,14 +164,13 @@ def main() -> None:
     ap.add_argument("--steps", type=int, help="training steps (default: the task's, STEPS)")
     args = ap.parse_args()
     args.sizes = sorted(int(s) for s in args.sizes.split(","))
-    rows = {}
     with tempfile.TemporaryDirectory(prefix="gloverec-generate-") as tmp:
         for task in args.tasks.split(","):
             for robot in args.robots.split(","):
-                rows[f"{task}/{robot}"] = one(task, robot, args, Path(tmp))
-    results = merged_with_previous("generate", {"rows": rows})
-    write_results("generate", results)
-    plot(results["rows"], RESULTS / "generate_curve.png")
+                row = one(task, robot, args, Path(tmp))
+                results = merged_with_previous("generate", {"rows": {f"{task}/{robot}": row}})  # each row as it ends
+                write_results("generate", results)
+                plot(results["rows"], RESULTS / "generate_curve.png")
 
 
 if __name__ == "__main__":

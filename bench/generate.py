@@ -64,7 +64,7 @@ def train_eval(task: str, robot: str, datasets: list[Path], out: Path, eval_epis
         "train_episodes": trained["train_episodes"],
         "train_wall_s": round(train_s, 1),
         "successes": ev["successes"],
-        "episodes": ev["episodes"],
+        "eval_episodes": ev["episodes"],
         "success_rate": ev["success_rate"],
         "wilson95": wilson(ev["successes"], ev["episodes"]),
     }
@@ -87,7 +87,7 @@ def one(task: str, robot: str, args, tmp: Path) -> dict:
         r = train_eval(
             task, robot, datasets, tmp / "runs" / f"{task}_{robot}_gen{size}", args.eval_episodes, args.steps
         )
-        curve.append({"episodes": size, **r})
+        curve.append({**r, "episodes": size})
         print(f"  {task}/{robot}: {size} generated -> {r['success_rate']:.0%} {r['wilson95']}", flush=True)
     attempts = sum(c["attempts"] for c in chunks)
     accepted = sum(c["accepted"] for c in chunks)
@@ -97,7 +97,7 @@ def one(task: str, robot: str, args, tmp: Path) -> dict:
         rec = record(task, robot, args.human, tmp / f"human_{task}_{robot}", args.failure_rate)
         r = train_eval(task, robot, [Path(rec["root"])], tmp / "runs" / f"{task}_{robot}_human", args.eval_episodes,
                        args.steps)  # fmt: skip
-        human.append({"episodes": args.human, "takes_successful": rec["success_rate"], **r})
+        human.append({**r, "episodes": args.human, "takes_successful": rec["success_rate"]})
         print(f"  {task}/{robot}: {args.human} human-like takes -> {r['success_rate']:.0%}", flush=True)
     best = max(curve, key=lambda c: c["episodes"])
     return {
@@ -142,7 +142,7 @@ def plot(rows: dict, path: Path) -> None:
                         h["success_rate"])]], label=f"{key}: {h['episodes']} recorded takes")  # fmt: skip
     ax.set_xscale("log")
     ax.set_xlabel("training episodes (log)")
-    ax.set_ylabel("success on 50 unseen seeds, % (Wilson 95 %)")
+    ax.set_ylabel("success on unseen seeds, % (Wilson 95 %)")
     ax.set_ylim(0, 100)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="lower right")

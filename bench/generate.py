@@ -123,32 +123,44 @@ def one(task: str, robot: str, args, tmp: Path) -> dict:
 
 
 def plot(rows: dict, path: Path) -> None:
+    """One panel per task: success against training episodes, generated (a line per robot, from its person's few
+    takes) and recorded human-like takes (squares), each with its Wilson interval; the legend says the person's
+    minutes."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 4.2))
-    for key, row in sorted(rows.items()):
-        n = [c["episodes"] for c in row["curve"]]
-        p = [100 * c["success_rate"] for c in row["curve"]]
-        lo = [100 * c["wilson95"][0] for c in row["curve"]]
-        hi = [100 * c["wilson95"][1] for c in row["curve"]]
-        line = ax.plot(n, p, "o-", label=f"{key}: generated from {row['sources']['takes']} takes")[0]
-        ax.fill_between(n, lo, hi, color=line.get_color(), alpha=0.12)
-        for h in row.get("human", []):
-            ax.errorbar([h["episodes"]], [100 * h["success_rate"]], fmt="s", color=line.get_color(), mfc="none",
-                        yerr=[[100 * (h["success_rate"] - h["wilson95"][0])], [100 * (h["wilson95"][1] -
-                        h["success_rate"])]], label=f"{key}: {h['episodes']} recorded takes")  # fmt: skip
-    ax.set_xscale("log")
-    ax.set_xlabel("training episodes (log)")
-    ax.set_ylabel("success on unseen seeds, % (Wilson 95 %)")
-    ax.set_ylim(0, 100)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="lower right")
-    ax.set_title("BC + history from generated demonstrations (bench/generate.py)")
+    tasks = sorted({row["task"] for row in rows.values()})
+    fig, axes = plt.subplots(1, len(tasks), figsize=(max(7.0, 4.2 * len(tasks)), 3.8), squeeze=False, sharey=True)
+    for ax, task in zip(axes[0], tasks, strict=True):
+        for row in (r for _, r in sorted(rows.items()) if r["task"] == task):
+            n = [c["episodes"] for c in row["curve"]]
+            p = [100 * c["success_rate"] for c in row["curve"]]
+            lo = [100 * c["wilson95"][0] for c in row["curve"]]
+            hi = [100 * c["wilson95"][1] for c in row["curve"]]
+            takes = row["sources"]["takes"]
+            line = ax.plot(n, p, "o-", label=f"{row['robot']}: generated from {takes} takes "
+                           f"({takes * PERSON_TAKE_S / 60:.1f} min of a person)")[0]  # fmt: skip
+            ax.fill_between(n, lo, hi, color=line.get_color(), alpha=0.12)
+            for h in row.get("human", []):
+                err = [[100 * (h["success_rate"] - h["wilson95"][0])], [100 * (h["wilson95"][1] - h["success_rate"])]]
+                ax.errorbar([h["episodes"] * 1.12], [100 * h["success_rate"]], yerr=err, fmt="s", mfc="none",
+                            color=line.get_color(), label=f"{row['robot']}: {h['episodes']} recorded takes "
+                            f"({h['episodes'] * PERSON_TAKE_S / 60:.1f} min)")  # fmt: skip
+        goal = GOALS.get(task)
+        if goal:
+            ax.axhline(100 * goal, color="grey", ls=":", lw=1)
+        ax.set_xscale("log")
+        ax.set_title(task)
+        ax.set_xlabel("training episodes (log)")
+        ax.set_ylim(0, 102)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=6.5, loc="lower right")
+    axes[0][0].set_ylabel("success, 50 unseen seeds (%; Wilson 95 %)")
+    fig.suptitle("BC + history trained on generated demonstrations (bench/generate.py); dotted: the goal", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=110)
     plt.close(fig)
 
 

@@ -13,7 +13,7 @@ For each task (one with a segmentation) and robot, with the gloverec commands a 
      (100000..; the generated scenes use 10000.., the recordings 0..)
   -> the same BC on --human recorded human-like takes (seeds 0..), where affordable (--human 0: not measured)
 Writes bench/results/generate.json (rows of other task/robot pairs already there are kept) and the learning curves,
-bench/results/generate_curve.png.
+docs/images/generate_curve.png (docs/policies.md shows them).
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import REPO, RESULTS, gloverec, merged_with_previous, wilson, write_results  # noqa: E402
+from _common import REPO, gloverec, merged_with_previous, wilson, write_results  # noqa: E402
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
@@ -38,6 +38,7 @@ EVAL_SEED = 100_000
 GEN_SEED = 10_000
 HISTORY = str(REPO / "configs" / "train" / "history.yaml")
 INPUTS = "state,environment"
+CURVE = REPO / "docs" / "images" / "generate_curve.png"  # docs/policies.md shows it (bench/results/*.png: not kept)
 PERSON_TAKE_S = 15.0  # a person's take with its reset (the issue: 10-20 s each)
 
 
@@ -182,7 +183,7 @@ def main() -> None:
                 row = one(task, robot, args, Path(tmp))
                 results = merged_with_previous("generate", {"rows": {f"{task}/{robot}": row}})  # each row as it ends
                 write_results("generate", results)
-                plot(results["rows"], RESULTS / "generate_curve.png")
+                plot(results["rows"], CURVE)
 
 
 if __name__ == "__main__":

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from recorder.hand.skeleton import N_IMUS
+from recorder.paths import write_atomic
 
 
 def quarter_turns(vectors, turns: int) -> np.ndarray:
@@ -77,12 +78,7 @@ class ChannelMap:
                    str(d.get("note", "")), str(d.get("created", "")))  # fmt: skip
 
     def save(self, folder) -> Path:
-        p = self.path(folder)
-        p.parent.mkdir(parents=True, exist_ok=True)
-        tmp = p.with_suffix(".tmp")
-        tmp.write_text(self.to_json())
-        tmp.replace(p)
-        return p
+        return write_atomic(self.path(folder), self.to_json())
 
 
 def load_channel_map(folder, glove_id: int) -> ChannelMap | None:

@@ -22,6 +22,7 @@ import numpy as np
 from recorder import quat
 from recorder.hand.kinematics import N_JOINTS, forward
 from recorder.hand.skeleton import JOINT_MAP, N_IMUS
+from recorder.paths import write_atomic
 
 VERSION = 1
 # The procedure's steps and how long each is recorded (s): `gloverec calibrate` walks the user through them,
@@ -98,12 +99,7 @@ class GloveCalibration:
         return Path(folder) / f"glove_{self.glove_id:08x}.json"
 
     def save(self, folder) -> Path:
-        p = self.path(folder)
-        p.parent.mkdir(parents=True, exist_ok=True)
-        tmp = p.with_suffix(".tmp")
-        tmp.write_text(self.to_json())
-        tmp.replace(p)
-        return p
+        return write_atomic(self.path(folder), self.to_json())
 
     @classmethod
     def load(cls, folder, glove_id: int) -> GloveCalibration:

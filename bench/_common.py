@@ -1,4 +1,4 @@
-"""Shared by the benchmarks: where results go and how they are written."""
+"""Shared by the benchmarks: where results go and how they are written, and a browser on the web view."""
 
 from __future__ import annotations
 
@@ -123,3 +123,35 @@ def train_act(repo_id: str, root: Path, out: Path, steps: int) -> tuple[str, flo
     t = time.perf_counter()
     r = subprocess.run(cmd, capture_output=True, text=True, env={**os.environ, "OMP_NUM_THREADS": "1"})
     return command, time.perf_counter() - t, (r.stderr.strip()[-1500:] if r.returncode != 0 else None)
+
+
+def browser(port: int, stop, as_invoker: bool = False) -> None:
+    """Headless Chromium on the web view's page, from when it is up until ``stop`` is set; as an unprivileged user
+    unless ``as_invoker`` (then as whoever runs the benchmark, as `gloverec record`'s user would open the page)."""
+    import os
+    import shutil
+    import socket
+    import subprocess
+    import tempfile
+
+    while not stop.is_set():
+        try:
+            socket.create_connection(("127.0.0.1", port), 0.2).close()
+            break
+        except OSError:
+            time.sleep(0.2)
+    with tempfile.TemporaryDirectory() as profile:
+        os.chmod(profile, 0o777)
+        # as an unprivileged user, like a person's browser: as root, Chromium raises its own processes' priority
+        # (nice -8) above the recording's, which no browser of a normal user can do
+        user = ["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups"] if os.geteuid() == 0 else []
+        user = [] if as_invoker else user
+        proc = subprocess.Popen(
+            [*user, shutil.which("chromium"), "--headless=new", "--no-sandbox", "--disable-gpu",
+             "--disable-background-networking", "--no-first-run", "--disable-component-update", "--disable-sync",
+             f"--user-data-dir={profile}",
+             f"http://127.0.0.1:{port}/"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+            env={**os.environ, "HOME": profile})  # fmt: skip
+        stop.wait()
+        proc.kill()
+        proc.wait(10)

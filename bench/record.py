@@ -38,7 +38,7 @@ from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import write_results  # noqa: E402
+from _common import browser, write_results  # noqa: E402
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("HF_HUB_OFFLINE", "1")
@@ -165,35 +165,6 @@ def _xvfb():
     return f":{number}", proc
 
 
-def _browser(port: int, stop, as_invoker: bool = False) -> None:
-    """Headless Chromium on the web view's page, from when it is up until ``stop`` is set; as an unprivileged user
-    unless ``as_invoker`` (then as whoever runs the benchmark, as `gloverec record`'s user would open the page)."""
-    import shutil
-    import socket
-
-    while not stop.is_set():
-        try:
-            socket.create_connection(("127.0.0.1", port), 0.2).close()
-            break
-        except OSError:
-            time.sleep(0.2)
-    with tempfile.TemporaryDirectory() as profile:
-        os.chmod(profile, 0o777)
-        # as an unprivileged user, like a person's browser: as root, Chromium raises its own processes' priority
-        # (nice -8) above the recording's, which no browser of a normal user can do
-        user = ["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups"] if os.geteuid() == 0 else []
-        user = [] if as_invoker else user
-        proc = subprocess.Popen(
-            [*user, shutil.which("chromium"), "--headless=new", "--no-sandbox", "--disable-gpu",
-             "--disable-background-networking", "--no-first-run", "--disable-component-update", "--disable-sync",
-             f"--user-data-dir={profile}",
-             f"http://127.0.0.1:{port}/"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-            env={**os.environ, "HOME": profile})  # fmt: skip
-        stop.wait()
-        proc.kill()
-        proc.wait(10)
-
-
 def views(seconds: float, fps: int = 100, episode_s: float = 10.0) -> dict:
     """The real-time session (Shadow grasp) with no view, the native view on Xvfb and the web view in Chromium."""
     import threading
@@ -206,15 +177,15 @@ def views(seconds: float, fps: int = 100, episode_s: float = 10.0) -> dict:
                                     "--motion", "random"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                    text=True)  # fmt: skip
             emu.stdout.readline()
-            display, xvfb, stop, browser = os.environ.get("DISPLAY"), None, threading.Event(), None
+            display, xvfb, stop, page = os.environ.get("DISPLAY"), None, threading.Event(), None
             spec = view
             if view == "native":
                 os.environ["DISPLAY"], xvfb = _xvfb()
             if view == "web":
                 port = 8800 + os.getpid() % 100
                 spec = f"web:{port}"
-                browser = threading.Thread(target=_browser, args=(port, stop), daemon=True)
-                browser.start()
+                page = threading.Thread(target=browser, args=(port, stop), daemon=True)
+                page.start()
             try:
                 episodes = max(1, round(seconds / episode_s))
                 cfg = RecordConfig.load(root=f"{tmp}/ds", repo_id="bench/view", glove=f"serial:{link}", robot="shadow",
@@ -225,8 +196,8 @@ def views(seconds: float, fps: int = 100, episode_s: float = 10.0) -> dict:
                 side = read_sidecar(summary["root"])
             finally:
                 stop.set()
-                if browser is not None:
-                    browser.join(15)
+                if page is not None:
+                    page.join(15)
                 if xvfb is not None:
                     xvfb.terminate()
                     xvfb.wait(10)
@@ -279,12 +250,12 @@ def view_load(takes: int = 20, jobs: int = 2, seed: int = 0) -> dict:
         busy = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(jobs)]
         saved_env = os.environ.get("GLOVEREC_LOOP_PRIORITY")
         os.environ["GLOVEREC_LOOP_PRIORITY"] = prio
-        stop, browser, spec = threading.Event(), None, "none"
+        stop, page, spec = threading.Event(), None, "none"
         if view == "web":
             port = 8700 + os.getpid() % 100
             spec = f"web:{port}"
-            browser = threading.Thread(target=_browser, args=(port, stop, True), daemon=True)
-            browser.start()
+            page = threading.Thread(target=browser, args=(port, stop, True), daemon=True)
+            page.start()
         try:
             with tempfile.TemporaryDirectory() as tmp:
                 cfg = RecordConfig.load(root=f"{tmp}/ds", repo_id="bench/viewload", task="turn", episodes=takes,
@@ -293,8 +264,8 @@ def view_load(takes: int = 20, jobs: int = 2, seed: int = 0) -> dict:
                 side = read_sidecar(summary["root"])
         finally:
             stop.set()
-            if browser is not None:
-                browser.join(15)
+            if page is not None:
+                page.join(15)
             for job in busy:
                 job.kill()
                 job.wait()

@@ -13,26 +13,29 @@ import numpy as np
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 
 
+# mul, conj and rotate run in every per-frame path (the emulator's synthesis, fusion, retargeting): components are
+# taken by indexing and written into one array, since np.moveaxis, np.stack and np.cross cost more than the
+# arithmetic on small arrays; the arithmetic and its order are theirs, so the results are bit for bit the same.
+_CONJ = np.array([1.0, -1.0, -1.0, -1.0])
+
+
 def mul(p, q) -> np.ndarray:
     """Hamilton product p q (thesis eq. 3.2)."""
     p = np.asarray(p, dtype=float)
     q = np.asarray(q, dtype=float)
-    pw, px, py, pz = np.moveaxis(p, -1, 0)
-    qw, qx, qy, qz = np.moveaxis(q, -1, 0)
-    return np.stack(
-        (
-            pw * qw - px * qx - py * qy - pz * qz,
-            pw * qx + px * qw + py * qz - pz * qy,
-            pw * qy - px * qz + py * qw + pz * qx,
-            pw * qz + px * qy - py * qx + pz * qw,
-        ),
-        axis=-1,
-    )
+    pw, px, py, pz = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
+    qw, qx, qy, qz = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    out = np.empty(np.broadcast_shapes(p.shape, q.shape))
+    out[..., 0] = pw * qw - px * qx - py * qy - pz * qz
+    out[..., 1] = pw * qx + px * qw + py * qz - pz * qy
+    out[..., 2] = pw * qy - px * qz + py * qw + pz * qx
+    out[..., 3] = pw * qz + px * qy - py * qx + pz * qw
+    return out
 
 
 def conj(q) -> np.ndarray:
     """Conjugate, the inverse of a unit quaternion."""
-    return np.asarray(q, dtype=float) * np.array([1.0, -1.0, -1.0, -1.0])
+    return np.asarray(q, dtype=float) * _CONJ
 
 
 def normalize(q) -> np.ndarray:
@@ -53,8 +56,19 @@ def rotate(q, v) -> np.ndarray:
     v = np.asarray(v, dtype=float)
     w = q[..., :1]
     u = q[..., 1:]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
+    t = 2.0 * _cross(u, v)
+    return v + w * t + _cross(u, t)
+
+
+def _cross(a, b) -> np.ndarray:
+    """np.cross of 3-vectors (..., 3), its formula without its axis handling."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a1 * b2 - a2 * b1
+    out[..., 1] = a2 * b0 - a0 * b2
+    out[..., 2] = a0 * b1 - a1 * b0
+    return out
 
 
 def to_matrix(q) -> np.ndarray:

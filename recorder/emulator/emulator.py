@@ -204,7 +204,7 @@ class Emulator:
                 if not realtime and not self._wait_for_lead(t):
                     break
                 block_s = BLOCK_S if realtime else self.fast_block_s
-                block, i = self.glove.next_block(max(1, int(block_s * self.sense_hz))), 0
+                block, i = self.glove.next_block(max(1, int(block_s * self.sense_hz)), raw=self._reads_raw()), 0
                 self.horizon_s = float(block.t[-1]) + period
             if self.core is not None:
                 self._firmware_cycle(block, i)
@@ -225,6 +225,10 @@ class Emulator:
             i += 1
             k += 1
 
+    def _reads_raw(self) -> bool:
+        """Whether the next block needs the IMUs' readings: raw frames, or the firmware, which fuses them."""
+        return self.core is not None or self.mode == Mode.RAW
+
     def _send_hz(self) -> float:
         """Frames per second actually sent: the output rate, or a slower one a ``rate`` fault imposes (the status
         frames still announce ``output_hz``)."""
@@ -240,7 +244,7 @@ class Emulator:
         next_status = 0.0
         k = 0
         while k * period < duration:
-            block = self.glove.next_block(max(1, int(self.fast_block_s * self.sense_hz)))
+            block = self.glove.next_block(max(1, int(self.fast_block_s * self.sense_hz)), raw=self._reads_raw())
             self.horizon_s = float(block.t[-1]) + period
             out = []
             for i in range(len(block.t)):
@@ -316,6 +320,8 @@ class Emulator:
             angles = joint_angles_from_relative(block.pose[i].astype(np.float64))
             data = encode_frame(PoseCompactFrame(self._next_seq(), t_us, block.pose[i][0], angles))
             seq = self.seq
+        elif block.raw is None:  # switched to raw mode within a block synthesised without readings: they start
+            return b""  # with the next block (50 ms on; 0.5 s of glove time faster than real time)
         else:
             raw, ok_mask = block.raw[i], (1 << N_IMUS) - 1
             if self.faults:

@@ -26,14 +26,15 @@ _IMU_SEG = list(JOINT_MAP)
 class GloveBlock:
     """n samples of the synthetic glove.
 
-    t (n,) s since start; raw (n, 12, 7) int16 MPU9250 readings (ax, ay, az, gx, gy, gz, temp);
+    t (n,) s since start; raw (n, 12, 7) int16 MPU9250 readings (ax, ay, az, gx, gy, gz, temp), or None when
+    the glove sent fused poses;
     pose (n, 16, 4) float32 parent-relative quats, truth plus noise; truth_rel (n, 16, 4) exact ones;
     angles (n, 20) rad truth; tips (n, 5, 3) m fingertips relative to the palm origin in world axes;
     palm_quat (n, 4) and palm_pos (n, 3) m the palm's world pose; accel_fs_g, gyro_fs_dps the scales of raw.
     """
 
     t: np.ndarray
-    raw: np.ndarray
+    raw: np.ndarray | None
     pose: np.ndarray
     truth_rel: np.ndarray
     angles: np.ndarray
@@ -70,17 +71,22 @@ class SyntheticGlove:
         self.pose_sigma = np.radians(pose_noise_deg) / np.sqrt(3.0)  # per axis
         self._rng = np.random.default_rng([seed, 0x706F7365])
 
-    def next_block(self, n: int) -> GloveBlock:
+    def next_block(self, n: int, raw: bool = True) -> GloveBlock:
+        """The next n samples; ``raw=False``: without the IMU readings (``raw`` None), for a glove that sends
+        fused poses: a quarter of the synthesis, on every frame of a recording."""
         m = self.motion.next_block(n)
         g, pos, tips = forward(m.angles, m.palm_quat, self.size)
         world = pos + m.palm_pos[:, None, :]
-        imu = self.imus.sample(g[:, _IMU_SEG], world[:, _IMU_SEG])
+        if raw:
+            imu = self.imus.sample(g[:, _IMU_SEG], world[:, _IMU_SEG])
+        else:
+            self.imus.skip(g[:, _IMU_SEG], world[:, _IMU_SEG])
         truth = quat.positive(relative_quats(g))
         noise = quat.from_rotvec(self._rng.normal(0.0, self.pose_sigma, (n, N_SEGMENTS, 3)))
         pose = quat.positive(quat.mul(truth, noise)).astype(np.float32)
         return GloveBlock(
             m.t,
-            imu.raw,
+            imu.raw if raw else None,
             pose,
             truth,
             m.angles,

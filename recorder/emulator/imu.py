@@ -157,6 +157,21 @@ class ImuArray:
         raw[..., 6] = quantise(t_meas - MPU_TEMP_OFFSET_C, MPU_TEMP_SENSITIVITY)
         return ImuBlock(raw, gyro, accel, bias, self.accel_offset, temp)
 
+    def skip(self, global_quats, positions) -> None:
+        """Advance past n samples without readings (a glove sending fused poses: nobody reads its IMUs), keeping
+        the history that the next ``sample`` differentiates; the noise of later readings is drawn afresh."""
+        q_seg = np.asarray(global_quats, dtype=float)
+        n = q_seg.shape[0]
+        if n == 0:
+            return
+        last = slice(None) if self._prev_q is None else slice(max(0, n - 3), n)  # priming needs the first four
+        q = quat.mul(q_seg[last], self.mount_quat)
+        p = np.asarray(positions, dtype=float)[last] + quat.rotate(q_seg[last], self.mount_offsets)
+        if self._prev_q is None:
+            self._prime(q, p)
+        self._prev_q, self._prev_p = q[-1:], np.concatenate((self._prev_p, p))[-3:]
+        self._k += n
+
     def _prime(self, q, p) -> None:
         """History before the first sample: extrapolated back from the first block (cubic in position,
         constant rate in orientation) when it has 4 samples, else the IMUs were still."""

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import threading
 from pathlib import Path
 
@@ -302,7 +303,7 @@ class SessionFusion:
     def _pose(self, frame, angles, palm, valid=True, quality: float = 0.0) -> HandPose:
         valid = np.isfinite(angles) & valid
         self._angles = np.where(valid, angles, self._angles)
-        if np.all(np.isfinite(palm)) and np.linalg.norm(palm) > 0.5:
+        if 0.25 < float(np.dot(palm, palm)) < math.inf:  # finite, and of norm above 0.5
             self._palm = palm
         return HandPose(self._angles, self._palm, valid, float(quality), int(frame.t_us), int(frame.rx_ns))
 

@@ -69,6 +69,18 @@ for _k, _f in enumerate(FINGERS[1:]):
 _X, _Y, _Z = np.eye(3)
 
 
+def _levels() -> list[tuple[list[int], list[int]]]:
+    """The segments below the palm a depth at a time, each with its parents: the chains, walked level by level."""
+    depth = [0] * N_SEGMENTS
+    for s in range(1, N_SEGMENTS):  # PARENTS[s] < s
+        depth[s] = depth[PARENTS[s]] + 1
+    return [([s for s in range(N_SEGMENTS) if depth[s] == d], [PARENTS[s] for s in range(N_SEGMENTS) if depth[s] == d])
+            for d in range(1, max(depth) + 1)]  # fmt: skip
+
+
+_LEVELS = _levels()
+
+
 def _thumb_rest() -> np.ndarray:
     """Thumb metacarpal rest frame on the palm: yaw 40° radial, tilt 15° palmar, roll 70° (nail radial)."""
     yaw = quat.from_axis_angle(_Z, np.radians(40.0))
@@ -177,8 +189,8 @@ def global_from_relative(rel) -> np.ndarray:
     rel = np.asarray(rel, dtype=float)
     g = np.empty_like(rel)
     g[..., 0, :] = rel[..., 0, :]
-    for s in range(1, N_SEGMENTS):  # PARENTS[s] < s: parents are done first
-        g[..., s, :] = quat.mul(g[..., PARENTS[s], :], rel[..., s, :])
+    for segs, parents in _LEVELS:  # each level's parents are done first (a level at a time: numpy calls per block)
+        g[..., segs, :] = quat.mul(g[..., parents, :], rel[..., segs, :])
     return g
 
 
@@ -203,16 +215,48 @@ def forward(angles, palm_quat, size: HandSize = HandSize()):
     lengths = size.lengths()
     bases = size.bases()
     pos = np.zeros(rel.shape[:-1] + (3,))
+    offsets = np.zeros((N_SEGMENTS, 3))  # each segment's base in its parent's frame
     for s in range(1, N_SEGMENTS):
-        p = PARENTS[s]
-        if p == 0:
-            offset = bases[(s - 1) // 3]
-        else:
-            offset = np.array([lengths[p], 0.0, 0.0])
-        pos[..., s, :] = pos[..., p, :] + quat.rotate(g[..., p, :], offset)
+        offsets[s] = bases[(s - 1) // 3] if PARENTS[s] == 0 else (lengths[PARENTS[s]], 0.0, 0.0)
+    for segs, parents in _LEVELS:
+        pos[..., segs, :] = pos[..., parents, :] + quat.rotate(g[..., parents, :], offsets[segs])
     distal = [FINGER_SEGMENTS[f][-1] for f in FINGERS]
     tips = pos[..., distal, :] + quat.rotate(g[..., distal, :], np.outer(lengths[distal], _X))
     return g, pos, tips
+
+
+def _left_product(p) -> np.ndarray:
+    """The matrices (..., 4, 4) that multiply by ``p`` from the left: quat.mul(p, q) == _left_product(p) @ q."""
+    w, x, y, z = np.moveaxis(np.asarray(p, float), -1, 0)
+    return np.stack([np.stack(row, -1) for row in ((w, -x, -y, -z), (x, w, -z, y), (y, z, w, -x), (z, -y, x, w))], -2)
+
+
+# joint_angles_from_relative runs on every glove frame (200 Hz and more when recording faster than real time): its
+# constants are computed once, REST comes off in one batched matrix product, and the four terms of the two angles
+# are quadratic forms of each segment's quaternion, taken in one product (a few numpy calls instead of dozens)
+_UNREST = _left_product(quat.conj(REST))[1:]  # segments 1..15 (the palm has no joint)
+_FLEX_OF = _FLEX[1:]  # the flexion joint of segments 1..15 (each has one)
+_ABD_SEGS = np.flatnonzero(_ABD[1:] < N_JOINTS)  # which of segments 1..15 carry an abduction, and its joint
+_ABD_OF = _ABD[1:][_ABD_SEGS]
+
+
+def _angle_terms() -> np.ndarray:
+    """(16, 4): the outer product r r^T (flattened) of a quaternion r = (w, x, y, z) times this gives the terms
+    -2(xz - wy), -2(x^2 + y^2), -2(xy - wz), -2(x^2 + z^2) of R = Rz(abd) Ry(flex): R[2,0] = -sin flex,
+    R[2,2] = cos flex, R[0,1] = -sin abd, R[1,1] = cos abd (with 1 added to the second and the fourth)."""
+    w, x, y, z = range(4)
+    c = np.zeros((4, 4, 4))
+    c[0, x, z] = c[0, z, x] = -1.0
+    c[0, w, y] = c[0, y, w] = 1.0
+    c[1, x, x] = c[1, y, y] = -2.0
+    c[2, x, y] = c[2, y, x] = -1.0
+    c[2, w, z] = c[2, z, w] = 1.0
+    c[3, x, x] = c[3, z, z] = -2.0
+    return c.reshape(4, 16).T.copy()
+
+
+_TERMS = _angle_terms()
+_TERMS_ONE = np.array([0.0, 1.0, 0.0, 1.0])
 
 
 def joint_angles_from_relative(rel_quats) -> np.ndarray:
@@ -221,16 +265,12 @@ def joint_angles_from_relative(rel_quats) -> np.ndarray:
     Each segment's rotation after removing REST is decomposed as Rz(abd) · Ry(flex); for hinge joints only
     the flexion is kept (a projection when the input is not a pure hinge rotation).
     """
-    r = quat.mul(quat.conj(REST), np.asarray(rel_quats, dtype=float))
-    w, x, y, z = np.moveaxis(r, -1, 0)
-    # R = Rz(a) Ry(f): R[2,0] = -sin f, R[2,2] = cos f, R[0,1] = -sin a, R[1,1] = cos a
-    flex = np.arctan2(-2.0 * (x * z - w * y), 1.0 - 2.0 * (x * x + y * y))
-    abd = np.arctan2(-2.0 * (x * y - w * z), 1.0 - 2.0 * (x * x + z * z))
-    out = np.zeros(r.shape[:-2] + (N_JOINTS,))
-    seg = np.arange(1, N_SEGMENTS)
-    out[..., _FLEX[seg]] = flex[..., seg]
-    has_abd = seg[_ABD[seg] < N_JOINTS]
-    out[..., _ABD[has_abd]] = abd[..., has_abd]
+    q = np.asarray(rel_quats, dtype=float)[..., 1:, :, None]
+    r = _UNREST @ q  # REST removed: conj(REST) * q, segments 1..15, as columns
+    f = (r * np.swapaxes(r, -1, -2)).reshape(r.shape[:-2] + (16,)) @ _TERMS + _TERMS_ONE
+    out = np.zeros(q.shape[:-3] + (N_JOINTS,))
+    out[..., _FLEX_OF] = np.arctan2(f[..., 0], f[..., 1])
+    out[..., _ABD_OF] = np.arctan2(f[..., _ABD_SEGS, 2], f[..., _ABD_SEGS, 3])
     return out
 
 

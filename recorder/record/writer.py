@@ -71,6 +71,7 @@ class EpisodeWriter:
         self._proc = ctx.Process(target=_serve, args=(store, child, self._conn), name="gloverec-writer")
         self._proc.start()
         child.close()
+        store.write_images_beside()  # here, not in the fork: threads that encode camera frames beside the loop
         self.pending = 0
         self.submitted = 0  # episodes handed over in this session
 

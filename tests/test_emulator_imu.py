@@ -216,6 +216,17 @@ def test_glove_continuous_and_deterministic():
     assert not np.array_equal(c.raw, whole.raw)
 
 
+def test_a_glove_sending_poses_synthesises_no_readings_and_keeps_their_history():
+    """next_block(raw=False): no IMU readings (a glove sending fused poses), the same motion; readings taken after
+    it continue the IMUs' history as if every block had been read (without noise: the noise is drawn afresh)."""
+    a = SyntheticGlove("random", rate_hz=RATE, seed=3, noise=False)
+    b = SyntheticGlove("random", rate_hz=RATE, seed=3, noise=False)
+    first_a, first_b = a.next_block(50), b.next_block(50, raw=False)
+    assert first_b.raw is None
+    np.testing.assert_array_equal(first_a.pose, first_b.pose)
+    np.testing.assert_array_equal(a.next_block(100).raw, b.next_block(100).raw)
+
+
 def test_glove_accel_matches_the_imu_pose():
     b = SyntheticGlove("random", rate_hz=RATE, seed=5, noise=False, bias=False).next_block(600)
     # the accelerometer's gravity direction is the IMU's global z, within the linear acceleration

@@ -159,6 +159,21 @@ def test_camera_images(robot):
     env.close()
 
 
+def test_the_cameras_render_without_multisampling_unless_asked():
+    """camera_samples: 0 by default (MuJoCo's 4x multisampling costs 2.6x the rendering on a CPU); 4 smooths the
+    edges of the same picture, and the model's own setting, which the videos people watch use, is kept."""
+    images = {}
+    for samples in (0, 4):
+        env = envs.make("grasp", "glovehand", cameras=("front",), image_size=(64, 64), camera_samples=samples)
+        obs, _ = env.reset(seed=2)
+        images[samples] = obs["observation.images.front"].astype(float)
+        assert env.unwrapped.model.vis.quality.offsamples == 4
+        env.close()
+    diff = np.abs(images[0] - images[4])
+    assert diff.max() > 20  # the edges differ ...
+    assert diff.mean() < 2.0  # ... the picture does not
+
+
 def test_a_perturbed_scene_looks_different_and_moves_the_same():
     """eval --perturb: light, the objects' colour and the cameras change what the cameras see, never the physics."""
 

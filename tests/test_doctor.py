@@ -112,3 +112,43 @@ def test_the_documented_bring_up_finds_the_build_errors_and_fixes_them(docs_run)
         ("rotated", (5,)),
     }
     assert found["fix"]["saved"] and found["wearer_s"] < 90
+
+
+def test_the_live_view_shows_each_move_on_the_human_hand(tmp_path, monkeypatch):
+    """`gloverec doctor --view web`: the page says the move the wearer is on while the doctor records it, as
+    calibrate's view does (the emulated wearer in real time: each move lasts seconds, the page is read every 50 ms)."""
+    import socket
+    import threading
+    import time
+    import urllib.request
+
+    from recorder.calibrate.doctor import Doctor
+    from recorder.view.process import PRIORITY_ENV
+
+    monkeypatch.setenv(PRIORITY_ENV, "normal")  # the view at the test's priority, however busy the machine
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    doctor = Doctor("emulator", folder=tmp_path, realtime=True, view=f"web:{port}", out=None)
+    seen, done = set(), threading.Event()
+
+    def read_the_page():
+        while not done.is_set():
+            try:
+                with urllib.request.urlopen(f"http://127.0.0.1:{port}/status", timeout=1) as page:
+                    seen.update(" ".join(map(str, row)) for row in json.load(page)["rows"])
+            except OSError:
+                pass  # not up yet, or gone
+            time.sleep(0.05)
+
+    reader = threading.Thread(target=read_the_page, daemon=True)
+    reader.start()
+    try:
+        verdict = doctor.run()
+    finally:
+        done.set()
+        reader.join(5)
+    assert verdict.checkup.ok
+    text = "\n".join(seen)
+    assert "checking emulator" in text and "Rest the hand flat" in text, text
+    assert "Curl the index finger" in text and "Curl the little finger" in text, text

@@ -14,6 +14,8 @@ from pathlib import Path
 
 from recorder import GloverecError
 from recorder.calibrate.procedure import STDERR, Calibrator, Step
+from recorder.calibrate.view import StepView
+from recorder.emulator.checkup import CheckupMotion
 from recorder.fusion.channels import ChannelMap
 from recorder.glove.checks import Checkup, examine
 from recorder.glove.config import GloveConfig
@@ -55,9 +57,12 @@ class Doctor(Calibrator):
     """One check-up of ``glove`` (emulator, serial:PORT, a device path, udp:PORT or mcap:FILE)."""
 
     def __init__(self, glove: GloveConfig | str, *, folder=None, glove_id: int | None = None,
-                 interactive: bool | None = None, realtime: bool = False, seed: int = 0, out=STDERR):  # fmt: skip
+                 interactive: bool | None = None, realtime: bool = False, seed: int = 0, out=STDERR,
+                 view: str | None = "none"):  # fmt: skip
+        """``view``: a live view showing each move on the human hand (None: native with a display and a
+        terminal)."""
         super().__init__(glove, glove_id=glove_id, folder=folder, interactive=interactive, realtime=realtime,
-                         seed=seed, out=out, view="none")  # fmt: skip
+                         seed=seed, out=out, view=view)  # fmt: skip
         self.steps = STEPS
         self.motion = "doctor"
         if self.emulated:  # the emulated wearer performs the moves; its glove starts in raw mode
@@ -65,8 +70,9 @@ class Doctor(Calibrator):
             self.spec = str(self.glove_config)
 
     def run(self, fix: bool = False) -> Verdict:
-        self.source = self._open()
+        self._open_view()  # first: its start-up (seconds) is over before the glove streams the moves it shows
         try:
+            self.source = self._open()
             try:
                 first = self._raw_mode()
             except GloverecError as exc:
@@ -88,6 +94,12 @@ class Doctor(Calibrator):
         if fix and found.channel_map is not None:
             verdict.saved = self._save(found.channel_map, applied)
         return verdict
+
+    def _open_view(self) -> None:
+        """The live view of the moves: the clean ones the emulated wearer performs (recorder/emulator/checkup.py)."""
+        if self.view_spec != "none":
+            self.view = StepView(self.view_spec, self.spec, self._say, self.hand_size,
+                                 demo=CheckupMotion(vary=False), doing="checking")  # fmt: skip
 
     def _save(self, new: ChannelMap, old: ChannelMap | None) -> Path:
         """The new map on top of the one in place (the doctor looked through it)."""

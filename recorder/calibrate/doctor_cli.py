@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 from recorder.paths import CALIBRATION_ENV
+from recorder.view.process import view_arg
 
 
 def add_parser(sub) -> None:
@@ -17,6 +18,8 @@ def add_parser(sub) -> None:
                    "default when stdin is not a terminal, and for the emulator)")  # fmt: skip
     d.add_argument("--realtime", action="store_true", help="pace --glove emulator in real time")
     d.add_argument("--json", action="store_true", help="print a JSON report instead of the screen")
+    d.add_argument("--view", type=view_arg, default="none", help="a live view of each move on the human hand: "
+                   "native, web[:PORT], rerun[:MODE], none (default: none; the terminal says each move)")  # fmt: skip
     d.set_defaults(func=cmd_doctor)
 
 
@@ -24,7 +27,7 @@ def cmd_doctor(args) -> int:
     from recorder.calibrate.doctor import Doctor, report, summary  # fusion, the glove: when it runs
 
     verdict = Doctor(args.glove, folder=args.dir, interactive=False if args.yes else None,
-                     realtime=args.realtime).run(fix=args.fix)  # fmt: skip
+                     realtime=args.realtime, view=args.view).run(fix=args.fix)  # fmt: skip
     print(
         json.dumps(summary(verdict)) if args.json else report(verdict, f"`gloverec doctor --glove {args.glove} --fix`")
     )

@@ -151,8 +151,7 @@ class Calibrator:
     def run(self) -> Result:
         self.source = self._open()
         try:
-            if self.view_spec != "none":
-                self.view = StepView(self.view_spec, self.spec, self._say, self.hand_size)
+            self._open_view()
             first = self._raw_mode()
             self._pending = first + self._pending
             recs, attempts = {}, 0
@@ -405,6 +404,11 @@ class Calibrator:
 
     def _say(self, text: str) -> None:
         print(text, file=self.out, flush=True)
+
+    def _open_view(self) -> None:
+        """The live view of the steps, unless it is ``none``."""
+        if self.view_spec != "none":
+            self.view = StepView(self.view_spec, self.spec, self._say, self.hand_size)
 
     def _show(self, k: int, step: Step, seconds: float, waiting: bool = False) -> str | None:
         """Show the step in the live view, if any; its requests: "next" (returned), "stop" (ends the run)."""

@@ -21,7 +21,10 @@ SHOW_HZ = 30.0
 
 
 class StepView:
-    def __init__(self, view: str | None, glove: str, say, hand_size: HandSize = HandSize()):
+    def __init__(self, view: str | None, glove: str, say, hand_size: HandSize = HandSize(), demo=None,
+                 doing: str = "calibrating"):  # fmt: skip
+        """``demo``: the moves shown, a motion with ``phases`` (step name -> (start, end) s) and ``at(t)`` (default:
+        the calibration procedure); ``doing``: what the status says is done to the glove."""
         if view is None:
             view, hint = default_view()
             if hint:
@@ -35,7 +38,8 @@ class StepView:
                               on_event=self._request, say=say, hand_size=hand_size)  # fmt: skip
         if self.view is not None:
             self.view.wait_ready()
-        self.demo = ProcedureMotion("gestures", 0, 200.0, pinch=True, size=hand_size)
+        self.demo = demo if demo is not None else ProcedureMotion("gestures", 0, 200.0, pinch=True, size=hand_size)
+        self.doing = doing
         self._last = 0.0
 
     def show(self, k: int, steps: int, step, seconds: float, waiting: bool = False) -> None:
@@ -49,7 +53,7 @@ class StepView:
         m = self.demo.at(np.array([t]))
         pose = HandPose(m.angles[0], m.palm_quat[0], np.ones(len(m.angles[0]), bool))
         doing = "waiting for Enter, the glove's button or F9" if waiting else f"{seconds:.1f} of {step.seconds:g} s"
-        status = {"phase": f"calibrating {self.glove}", "step": f"{k + 1} of {steps}: {step.text} ({doing})",
+        status = {"phase": f"{self.doing} {self.glove}", "step": f"{k + 1} of {steps}: {step.text} ({doing})",
                   "keys": ["next", "stop"]}  # fmt: skip
         self.view.publish(frame_of(self.env, status, pose))
 

@@ -31,6 +31,11 @@ class CheckupMotion(SampledMotion):
         self.depth = np.radians(flex_deg) * depth * np.where(np.arange(len(FINGERS)) == 0, 0.6, 1.0)
         self.coupling = rng.uniform(0.0, 0.35, len(FINGERS)) if vary else np.zeros(len(FINGERS))
 
+    @property
+    def phases(self) -> dict[str, tuple[float, float]]:
+        """Each move's (start, end) in s: a live view shows the move in progress (recorder/calibrate/view.py)."""
+        return {name: (start, start + checkup.STEPS[name]) for name, start in checkup.START_S.items()}
+
     def at(self, t) -> MotionBlock:
         t = np.asarray(t, float)
         angles = np.zeros((len(t), N_JOINTS))

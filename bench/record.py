@@ -214,10 +214,13 @@ def budget(episodes: int = 10, cameras: list | None = None) -> dict:
     cpu = {}
     close = rec_mod.Recorder.close
 
-    def close_after_counting(self):  # the threads' CPU time, before the glove's threads end
+    before: dict[int, float] = {}  # each thread's CPU time when the measured session started
+
+    def close_after_counting(self):  # the threads' CPU time in the session, before the glove's threads end
         names = {t.native_id: t.name for t in threading.enumerate()}
         for t in psutil.Process().threads():
-            cpu[names.get(t.id, "other")] = cpu.get(names.get(t.id, "other"), 0.0) + t.user_time + t.system_time
+            name = names.get(t.id, "other (the CPU renderer's, LeRobot's image writer's)")
+            cpu[name] = cpu.get(name, 0.0) + t.user_time + t.system_time - before.get(t.id, 0.0)
         close(self)
 
     rec_mod.Recorder.close = close_after_counting
@@ -241,6 +244,7 @@ def budget(episodes: int = 10, cameras: list | None = None) -> dict:
             stages.calls.clear()
             cpu.clear()
             played.clear()
+            before.update({t.id: t.user_time + t.system_time for t in psutil.Process().threads()})
             main_cpu = time.thread_time()
             wall, frames, _ = session(tmp, episodes=episodes, cameras=cameras or [], realtime=False, log=False)
             main_cpu = time.thread_time() - main_cpu

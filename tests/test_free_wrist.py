@@ -136,6 +136,7 @@ def wrist_video(tmp_path_factory):
 
 
 @pytest.mark.process
+@pytest.mark.xdist_group("wrist_video")  # its module fixture made once, on one worker (20 s a worker)
 def test_record_relocate_with_a_marker_video_stores_the_base_position(tmp_path, wrist_video):
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
@@ -153,6 +154,7 @@ def test_record_relocate_with_a_marker_video_stores_the_base_position(tmp_path, 
     assert np.ptp(wrist[:, 2]) > 0.05  # the wrist went down to the object and up again
 
 
+@pytest.mark.xdist_group("wrist_video")
 @pytest.mark.parametrize(
     ("wrist", "camera", "says"),
     [

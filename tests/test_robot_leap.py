@@ -65,6 +65,7 @@ def recorded(tmp_path_factory):
 
 
 @pytest.mark.process
+@pytest.mark.xdist_group("leap_recorded")  # its module fixture made once, on one worker
 def test_leap_records_with_the_wearers_profile(recorded):
     base, root, profile, env, summary = recorded
     assert summary["episodes_saved"] == 2
@@ -89,6 +90,7 @@ def test_leap_records_with_the_wearers_profile(recorded):
     assert again["wearer"] == "ana" and again["segments_mm"]["thumb"] == [46.0, 35.0, 28.0]
 
 
+@pytest.mark.xdist_group("leap_recorded")
 def test_leap_trains_and_evaluates(recorded):
     base, root, _, env, _ = recorded
     out = base / "run"

@@ -113,7 +113,7 @@ def test_eval_knows_the_robot_from_a_free_wrist_policy_s_action_names():
     assert trained_setup({"robot": None, "names": {"action": names}}) == (None, "shadow")
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # session: kept while other modules run on this worker
 def wrist_video(tmp_path_factory):
     """Two relocate demonstrations' wrist paths, filmed by the emulated webcam: a lossless video and its camera."""
     from recorder.demonstrator import make_demonstrator

@@ -47,7 +47,7 @@ def test_leaps_fist_goal_is_the_one_its_colliding_fingers_reach_from_the_open_ha
     assert {x["goal"] for x in runs} == {"fist"} and all(x["success"] for x in runs), runs
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # session: kept while other modules run on this worker
 def recorded(tmp_path_factory):
     base = tmp_path_factory.mktemp("leap")
     cal = base / "cal"

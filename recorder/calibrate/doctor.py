@@ -14,7 +14,6 @@ from pathlib import Path
 
 from recorder import GloverecError
 from recorder.calibrate.procedure import STDERR, Calibrator, Step
-from recorder.calibrate.view import StepView
 from recorder.emulator.checkup import CheckupMotion
 from recorder.fusion.channels import ChannelMap
 from recorder.glove.checks import Checkup, examine
@@ -65,6 +64,7 @@ class Doctor(Calibrator):
                          seed=seed, out=out, view=view)  # fmt: skip
         self.steps = STEPS
         self.motion = "doctor"
+        self.view_moves, self.view_doing = CheckupMotion(vary=False), "checking"  # the emulated wearer's clean moves
         if self.emulated:  # the emulated wearer performs the moves; its glove starts in raw mode
             self.glove_config = GloveConfig.parse(self.glove_config, mode="raw", motion="doctor", seed=seed)
             self.spec = str(self.glove_config)
@@ -94,12 +94,6 @@ class Doctor(Calibrator):
         if fix and found.channel_map is not None:
             verdict.saved = self._save(found.channel_map, applied)
         return verdict
-
-    def _open_view(self) -> None:
-        """The live view of the moves: the clean ones the emulated wearer performs (recorder/emulator/checkup.py)."""
-        if self.view_spec != "none":
-            self.view = StepView(self.view_spec, self.spec, self._say, self.hand_size,
-                                 demo=CheckupMotion(vary=False), doing="checking")  # fmt: skip
 
     def _save(self, new: ChannelMap, old: ChannelMap | None) -> Path:
         """The new map on top of the one in place (the doctor looked through it)."""

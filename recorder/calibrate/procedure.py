@@ -142,6 +142,8 @@ class Calibrator:
         self.glove = None
         self.view_spec = view
         self.view = None
+        self.view_moves = None  # what the view shows on the human hand (None: the calibration procedure's steps)
+        self.view_doing = "calibrating"  # what its status says is done to the glove
         self._pending: list = []  # frames read ahead and not used yet
         self.channels = None  # the glove's channel map (`gloverec doctor --fix`), applied to its raw frames
         self.announced_hz: float | None = None  # the output rate its status frames state
@@ -408,7 +410,8 @@ class Calibrator:
     def _open_view(self) -> None:
         """The live view of the steps, unless it is ``none``."""
         if self.view_spec != "none":
-            self.view = StepView(self.view_spec, self.spec, self._say, self.hand_size)
+            self.view = StepView(self.view_spec, self.spec, self._say, self.hand_size, demo=self.view_moves,
+                                 doing=self.view_doing)  # fmt: skip
 
     def _show(self, k: int, step: Step, seconds: float, waiting: bool = False) -> str | None:
         """Show the step in the live view, if any; its requests: "next" (returned), "stop" (ends the run)."""
